@@ -1,0 +1,1 @@
+"""GRACE: learning robotic assembly sequence planning (Atad, Feng et al., IROS 2023)."""
