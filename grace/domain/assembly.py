@@ -91,7 +91,7 @@ def surface_type(part_type: PartType, index: int) -> SurfaceType:
 
 
 def planar_pose(x: float, y: float, quarter_turns: int = 0) -> np.ndarray:
-    """A 4×4 pose on the table: translation (x, y, 0) mm, rotation of `quarter_turns`·90° about z."""
+    """A 4×4 table pose: translation (x, y, 0) mm, rotation of `quarter_turns`·90° about z."""
     c, s = {0: (1, 0), 1: (0, 1), 2: (-1, 0), 3: (0, -1)}[quarter_turns % 4]
     pose = np.eye(4)
     pose[:2, :2] = [[c, -s], [s, c]]

@@ -123,7 +123,7 @@ class GroundTruth:
         return int(self.completable[self._index()[state]])
 
     def path_counts(self, mask_of: str = "placeable") -> dict[int, int]:
-        """Number of paths from the empty state to every state along `placeable` or `completable`."""
+        """Number of paths from the empty state to each state along `placeable` or `completable`."""
         masks = dict(zip(self.states.tolist(), getattr(self, mask_of).tolist(), strict=True))
         counts = {0: 1}
         for state in sorted(masks, key=int.bit_count):

@@ -13,7 +13,7 @@ log = logging.getLogger(__name__)
 
 
 def run_task(cfg: DictConfig) -> float | None:
-    """Seed, cap the threads and call `cfg.task.fn(cfg)`; its return value is the sweep objective."""
+    """Seed, cap the threads, call `cfg.task.fn(cfg)`; its return value is the sweep objective."""
     seed_everything(cfg.seed, workers=True, verbose=False)
     torch.set_num_threads(cfg.threads)
     log.info("task %s", cfg.task.name)

@@ -23,9 +23,7 @@ def test_precedence_and_dead_end():
         return True
 
     gt = GroundTruth.explore(3, can_place)
-    assert sorted(gt.orders()) == sorted(
-        [(0, 2, 1), (2, 0, 1)]
-    )
+    assert sorted(gt.orders()) == sorted([(0, 2, 1), (2, 0, 1)])
     assert gt.label(0) == 0b101
     assert gt.label(0b001) == 0b100  # placing 1 now leads to the dead end
     assert list(gt.dead_ends()) == [(0, 1)]
