@@ -1,0 +1,66 @@
+"""`python -m grace task=generate`: make (or finish) the data set, write stats.json and a top view.
+
+Issue 2. With `dataset.num_shards>1` a run generates only its share; stats and the picture are
+written by whichever run finds the data set complete. `task.export_raw=/folder` also exports every
+assembly in the raw format (SPEC §3) as `<folder>/A<size>/<name>/`.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from collections.abc import Sequence
+from pathlib import Path
+
+from omegaconf import DictConfig
+
+from grace.data.atomic import write_bytes_atomic, write_text_atomic
+from grace.data.raw_format import export_raw
+from grace.data.stats import dataset_stats
+from grace.data.store import generate, read_chunks, seconds_per_assembly
+from grace.domain.sample import LabelledAssembly
+from grace.visualisation.topview import topview_png
+
+log = logging.getLogger(__name__)
+
+STATS_FILE = "stats.json"
+TOPVIEW_FILE = "topview.png"
+
+
+def pick_examples(samples: Sequence[LabelledAssembly], count: int) -> list[LabelledAssembly]:
+    """Up to `count` to draw: per size, largest first, its first feasible and infeasible one."""
+    picked: list[LabelledAssembly] = []
+    for size in sorted({s.size for s in samples}, reverse=True):
+        for feasible in (True, False):
+            match = next(
+                (s for s in samples if s.size == size and s.truth.feasible == feasible), None
+            )
+            if match is not None and len(picked) < count:
+                picked.append(match)
+    return picked
+
+
+def run(cfg: DictConfig) -> None:
+    """Generate this run's share; once the data set is complete write stats.json and topview.png."""
+    if cfg.dataset.name != "generated":
+        raise ValueError(f"task=generate needs dataset=generated, got dataset={cfg.dataset.name}")
+    generation = generate(cfg)
+    if not generation.complete:
+        log.info(
+            "%d chunks still missing (other shards); stats are written once all exist",
+            generation.missing,
+        )
+        return None
+    samples = read_chunks(generation.path, generation.chunks)
+    out = Path(cfg.paths.output_dir)
+    seconds = seconds_per_assembly(generation.path, generation.chunks)
+    stats = dataset_stats(samples, seconds, str(generation.path))
+    write_text_atomic(out / STATS_FILE, json.dumps(stats, indent=2) + "\n")
+    examples = pick_examples(samples, int(cfg.task.topview))
+    if examples:
+        write_bytes_atomic(out / TOPVIEW_FILE, topview_png(examples))
+    if cfg.task.get("export_raw"):
+        for sample in samples:
+            export_raw(sample, Path(cfg.task.export_raw) / f"A{sample.size}" / sample.assembly.name)
+    log.info("%d assemblies in %s; stats in %s", len(samples), generation.path, out / STATS_FILE)
+    return None

@@ -1,0 +1,76 @@
+import numpy as np
+import pytest
+from hydra.utils import instantiate
+from omegaconf import open_dict
+
+from grace.data.loading import load_dataset
+from grace.data.raw_format import RawFormatError, export_raw
+from grace.data.store import load_generated
+
+DROP = ("task=generate", "~simulator", "~model", "~trainer", "~protocol")
+
+
+@pytest.fixture
+def raw_tree(tmp_path, fake_simulator):
+    """A folder of raw assembly folders (sizes 3 and 5, three each) and their samples in order."""
+    simulator = instantiate(fake_simulator)
+    samples = []
+    for size in (5, 3):
+        for i in range(3):
+            sample = simulator.sample(size, np.random.default_rng([size, i]))
+            sample.assembly.name, sample.info = f"{size}_{i}", {}
+            export_raw(sample, tmp_path / "raw" / f"A{size}" / sample.assembly.name)
+            samples.append(sample)
+    return tmp_path / "raw", sorted(samples, key=lambda s: (s.size, s.assembly.name))
+
+
+def test_raw_data_set_is_imported_and_cached(cfg_factory, raw_tree, tmp_path):
+    root, expected = raw_tree
+    cfg = cfg_factory("dataset=raw", f"dataset.path={root}", "dataset.sizes=null", *DROP)
+    loaded = load_dataset(cfg)
+    assert loaded == expected
+    assert [s.assembly.name for s in loaded] == ["3_0", "3_1", "3_2", "5_0", "5_1", "5_2"]
+    (cache,) = (tmp_path / "data").iterdir()
+    assert cache.name.startswith("raw-") and (cache / "manifest.json").exists()
+    assert load_dataset(cfg) == expected  # from the cache
+    (root / "A3" / "3_1" / "solutions.csv").write_text("")
+    assert len(list((tmp_path / "data").iterdir())) == 1
+    reloaded = load_dataset(cfg)  # an edited folder is imported again
+    assert not reloaded[1].truth.feasible and len(list((tmp_path / "data").iterdir())) == 2
+
+
+def test_raw_sizes_select_the_first_of_each_size(cfg_factory, raw_tree):
+    root, expected = raw_tree
+    cfg = cfg_factory(
+        "dataset=raw",
+        f"dataset.path={root}",
+        "dataset.sizes={5: 2, 4: 1}",
+        *DROP,
+    )
+    assert load_dataset(cfg) == [s for s in expected if s.size == 5][:2]
+
+
+def test_malformed_raw_tree_writes_nothing(cfg_factory, raw_tree, tmp_path):
+    root, _ = raw_tree
+    (root / "A5" / "5_2" / "distances.csv").write_text("part_0_surface_1,part_9_surface_1,4\n")
+    cfg = cfg_factory("dataset=raw", f"dataset.path={root}", *DROP)
+    with pytest.raises(RawFormatError, match=r"5_2/distances.csv:1: .*part_9_surface_1"):
+        load_dataset(cfg)
+    assert not (tmp_path / "data").exists() or not any((tmp_path / "data").iterdir())
+
+
+def test_dataset_errors_name_the_fix(cfg_factory):
+    with pytest.raises(ValueError, match=r"dataset\.path"):
+        load_dataset(cfg_factory("dataset=raw", *DROP))
+    cfg = cfg_factory("dataset=raw", *DROP)
+    cfg.dataset.name = "mystery"
+    with pytest.raises(ValueError, match="dataset=generated or dataset=raw"):
+        load_dataset(cfg)
+
+
+def test_generated_goes_through_the_store(cfg_factory, fake_simulator):
+    cfg = cfg_factory("dataset.sizes={4: 3}", "threads=1", *DROP)
+    with open_dict(cfg):
+        cfg.simulator = fake_simulator
+    assert load_dataset(cfg) == load_generated(cfg)
+    assert [s.size for s in load_dataset(cfg)] == [4, 4, 4]

@@ -1,0 +1,60 @@
+import pytest
+
+from grace.data.stats import dataset_stats, size_stats
+from grace.domain.assembly import Assembly, Part, PartType, planar_pose
+from grace.domain.orders import GroundTruth
+from grace.domain.sample import LabelledAssembly
+
+
+def _sample(n_parts: int, rule, **info) -> LabelledAssembly:
+    parts = tuple(
+        Part(f"p{i}", PartType.PROFILE_200, planar_pose(100 * i, 0)) for i in range(n_parts)
+    )
+    return LabelledAssembly(Assembly(parts), GroundTruth.explore(n_parts, rule), info)
+
+
+FREE = lambda state, part: True  # noqa: E731  3! = 6 orders
+CHAIN = lambda state, part: part == 0 or bool(state >> (part - 1) & 1)  # noqa: E731  1 order
+NEVER_LAST = lambda state, part: part != 2  # noqa: E731  infeasible
+
+
+def test_size_stats_known_values():
+    samples = [
+        _sample(3, FREE, robot_pruned=False, nonlocal_block=False),
+        _sample(3, CHAIN, robot_pruned=True, nonlocal_block=True),
+        _sample(3, CHAIN, robot_pruned=True, nonlocal_block=False),
+        _sample(3, NEVER_LAST, cause="collision"),
+        _sample(3, NEVER_LAST, cause="reach"),
+        _sample(3, NEVER_LAST, cause="collision"),
+        _sample(3, NEVER_LAST, cause="collision"),
+    ]
+    s = size_stats(samples)
+    assert s["assemblies"] == 7
+    assert s["infeasible_fraction"] == pytest.approx(4 / 7)
+    assert s["orders_mean"] == pytest.approx(8 / 3) and s["orders_median"] == 1.0
+    assert s["multi_order_fraction"] == pytest.approx(1 / 3)
+    assert s["infeasible_causes"] == {"reach": 0.25, "collision": 0.75, "other": 0.0}
+    assert s["robot_pruned_fraction"] == pytest.approx(2 / 3)
+    assert s["nonlocal_block_fraction"] == pytest.approx(1 / 3)
+    assert s["states"] == sum(len(x.truth.states) for x in samples)
+    assert s["checks"] == sum(x.truth.checks for x in samples) > 0
+    # brute force, step by step until the first failure: free 3·3! = 18; chain 6 + 2 + 1 = 9;
+    # part 2 never placeable: 6 + 2 + 2 + 2·1 = 12
+    assert s["naive_checks"] == 18 + 2 * 9 + 4 * 12
+
+
+def test_undefined_fractions_are_null_and_sizes_are_string_keys():
+    stats = dataset_stats(
+        [_sample(4, FREE), _sample(3, NEVER_LAST, cause="other")], {3: 0.5, 4: 0.25}, "/d"
+    )
+    assert list(stats["per_size"]) == ["3", "4"]
+    assert stats["per_size"]["3"]["orders_mean"] is None
+    assert stats["per_size"]["3"]["robot_pruned_fraction"] is None
+    assert stats["per_size"]["4"]["infeasible_causes"] == {
+        "reach": None,
+        "collision": None,
+        "other": None,
+    }
+    assert stats["per_size"]["4"]["orders_mean"] == 24.0
+    assert stats["seconds_per_assembly"] == {"3": 0.5, "4": 0.25}
+    assert stats["dataset_path"] == "/d"

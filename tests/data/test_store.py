@@ -1,0 +1,141 @@
+from pathlib import Path
+
+import pytest
+from omegaconf import open_dict
+
+from grace.data.records import dumps, loads
+from grace.data.shards import SHARD_SUFFIX, encode_shard
+from grace.data.store import (
+    dataset_dir,
+    generate,
+    load_generated,
+    plan,
+    read_chunks,
+    seconds_per_assembly,
+)
+
+
+@pytest.fixture
+def fake_cfg(cfg_factory, fake_simulator):
+    """A generated-dataset config on the fake simulator; groups the data layer ignores dropped."""
+
+    def make(*overrides: str, sizes: str = "{3: 5, 4: 4, 6: 3}"):
+        # `dataset.sizes={...}` replaces the preset's mapping; a second such override would merge.
+        cfg = cfg_factory(
+            "task=generate", "~simulator", "~model", "~trainer", "~protocol",
+            f"dataset.sizes={sizes}", "dataset.chunk_size=2", "threads=1", *overrides,
+        )  # fmt: skip
+        with open_dict(cfg):
+            cfg.simulator = fake_simulator
+        return cfg
+
+    return make
+
+
+def _data_bytes(root: Path) -> dict[str, bytes]:
+    return {
+        str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob(f"*{SHARD_SUFFIX}"))
+    }
+
+
+def test_plan_covers_every_assembly_once():
+    chunks = plan({4: 5, 3: 2}, 2)
+    assert [(c.size, c.start, c.stop) for c in chunks] == [
+        (3, 0, 2),
+        (4, 0, 2),
+        (4, 2, 4),
+        (4, 4, 5),
+    ]
+    with pytest.raises(ValueError, match="chunk_size"):
+        plan({3: 1}, 0)
+
+
+def test_generate_and_load_are_deterministic(fake_cfg, tmp_path):
+    cfg = fake_cfg()
+    generation = generate(cfg)
+    assert generation.complete and generation.generated == 12
+    samples = load_generated(cfg)
+    assert [s.size for s in samples] == [3] * 5 + [4] * 4 + [6] * 3
+    assert [s.assembly.name for s in samples[:2]] == ["A3-000000", "A3-000001"]
+    assert all("seconds" not in s.info for s in samples)
+    again = fake_cfg(f"paths.data_dir={tmp_path / 'other'}")
+    generate(again)
+    assert _data_bytes(dataset_dir(cfg)) == _data_bytes(dataset_dir(again))
+    assert load_generated(again) == samples
+    other_seed = fake_cfg("seed=1")
+    generate(other_seed)
+    assert _data_bytes(dataset_dir(other_seed)) != _data_bytes(dataset_dir(cfg))
+
+
+def test_cache_key_ignores_operational_keys_only(fake_cfg):
+    base = dataset_dir(fake_cfg())
+    assert (
+        dataset_dir(fake_cfg("dataset.chunk_size=7", "dataset.workers=2", sizes="{3: 1}")) == base
+    )
+    assert dataset_dir(fake_cfg("dataset.num_shards=3", "dataset.shard=2")) == base
+    assert dataset_dir(fake_cfg("seed=5")) != base
+    changed = fake_cfg()
+    changed.simulator.spacing = 300.0
+    assert dataset_dir(changed) != base
+    assert base.name.startswith("generated-")
+
+
+def test_assemblies_do_not_depend_on_chunking(fake_cfg, tmp_path):
+    small = load_generated(fake_cfg())
+    large = load_generated(fake_cfg("dataset.chunk_size=5", f"paths.data_dir={tmp_path / 'b'}"))
+    assert small == large
+    subset = load_generated(fake_cfg(sizes="{4: 2}"))
+    assert subset == [s for s in small if s.size == 4][:2]
+
+
+def test_two_shards_merge_to_the_unsharded_data_set(fake_cfg, tmp_path):
+    whole = fake_cfg(f"paths.data_dir={tmp_path / 'whole'}")
+    generate(whole)
+    first = generate(fake_cfg("dataset.num_shards=2", "dataset.shard=0"))
+    assert not first.complete and first.missing == len(first.chunks) // 2
+    second = generate(fake_cfg("dataset.num_shards=2", "dataset.shard=1"))
+    assert second.complete
+    assert _data_bytes(first.path) == _data_bytes(dataset_dir(whole))
+    assert load_generated(fake_cfg()) == load_generated(whole)
+    with pytest.raises(ValueError, match="shard"):
+        generate(fake_cfg("dataset.num_shards=2", "dataset.shard=2"))
+
+
+def test_loader_fills_the_other_shards_share(fake_cfg):
+    generate(fake_cfg("dataset.num_shards=3", "dataset.shard=1"))
+    assert len(load_generated(fake_cfg("dataset.num_shards=3", "dataset.shard=1"))) == 12
+
+
+def test_resume_regenerates_only_missing_chunks(fake_cfg):
+    cfg = fake_cfg()
+    generation = generate(cfg)
+    before = _data_bytes(generation.path)
+    lost = generation.chunks[3]
+    lost.path(generation.path).unlink()
+    assert generate(cfg).generated == lost.stop - lost.start
+    assert _data_bytes(generation.path) == before
+    assert generate(cfg).generated == 0
+
+
+def test_worker_processes_give_identical_bytes(fake_cfg, tmp_path):
+    one = generate(fake_cfg(f"paths.data_dir={tmp_path / 'one'}"))
+    two = generate(fake_cfg(f"paths.data_dir={tmp_path / 'two'}", "dataset.workers=2"))
+    assert _data_bytes(one.path) == _data_bytes(two.path)
+    seconds = seconds_per_assembly(two.path, two.chunks)
+    assert set(seconds) == {3, 4, 6} and all(s > 0 for s in seconds.values())
+
+
+def test_records_are_lossless_and_shards_deterministic(fake_cfg):
+    cfg = fake_cfg()
+    generation = generate(cfg)
+    samples = read_chunks(generation.path, generation.chunks)
+    moved = samples[0]
+    moved.assembly.relations[0, 5] = moved.assembly.relations[5, 0] = 7.25
+    assert loads(dumps(moved)) == moved
+    assert "relations" not in dumps(samples[1])
+    assert encode_shard(samples) == encode_shard(samples)
+
+
+def test_bad_sizes_are_one_clear_error(fake_cfg):
+    with pytest.raises(ValueError, match=r"dataset\.sizes"):
+        generate(fake_cfg(sizes="{3: -1}"))
