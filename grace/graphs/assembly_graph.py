@@ -1,0 +1,114 @@
+"""The Assembly Graph of SPEC §4, as a pure function of (Assembly, state).
+
+Everything that does not depend on the state is computed once per assembly into
+:class:`AssemblyTensors`; a state only sets the assembled flags. :func:`state_graph` builds the
+per-state heterogeneous PyG graph the reference network consumes:
+- part nodes `[assembled-flag, part-type, PE(part-id)]` (1 + 1 + 16 = 18 features),
+- surface nodes `[surface-type, PE(surface-id)]` (1 + 16 = 17 features),
+- ("surface", "near", "surface"): the complete graph over surfaces including self loops, one edge
+  feature (the relation of SPEC §4, parallel distances divided by `distance_scale`, self loop 0),
+- ("surface", "of", "part"): each surface to its own part, no feature.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+from torch_geometric.data import HeteroData
+
+from grace.domain.assembly import Assembly, Surface
+from grace.graphs.encoding import GraphEncoding, node_ids
+
+SURFACE_EDGE = ("surface", "near", "surface")
+PART_EDGE = ("surface", "of", "part")
+
+
+@dataclass(frozen=True)
+class AssemblyTensors:
+    """State-independent inputs of one assembly (float32 tensors, surface order of Assembly)."""
+
+    part_static: torch.Tensor  # (N, 1 + pe_dim): part-type, PE(part-id)
+    surface_x: torch.Tensor  # (S, 1 + pe_dim): surface-type, PE(surface-id)
+    relation: torch.Tensor  # (S, S): scaled relation, zero diagonal
+    surface_part: torch.Tensor  # (S,) int64: owning part of every surface
+
+    @property
+    def n_parts(self) -> int:
+        return self.part_static.shape[0]
+
+    @property
+    def n_surfaces(self) -> int:
+        return self.surface_x.shape[0]
+
+
+def scaled_relations(
+    assembly: Assembly, distance_scale: float, surfaces: list[Surface] | None = None
+) -> np.ndarray:
+    """Relation matrix with parallel distances in units of `distance_scale` mm (codes kept)."""
+    rel = np.asarray(assembly.relations, dtype=np.float64)
+    surfaces = assembly.surfaces() if surfaces is None else surfaces
+    part = np.array([s.part for s in surfaces])
+    normals = np.array([s.normal for s in surfaces], dtype=np.float64)
+    parallel = (part[:, None] != part[None, :]) & (np.abs(normals @ normals.T) > 0.5)
+    out = np.where(parallel, rel / distance_scale, rel)
+    np.fill_diagonal(out, 0.0)
+    return out
+
+
+def encode_assembly(
+    assembly: Assembly,
+    enc: GraphEncoding,
+    training: bool = False,
+    rng: np.random.Generator | None = None,
+) -> AssemblyTensors:
+    """Node features and edge relations of `assembly` (SPEC §4); `rng` only for randomised `enc`."""
+    surfaces = assembly.surfaces()
+    surface_part = np.array([s.part for s in surfaces], dtype=np.int64)
+    surface_index = np.array([s.index for s in surfaces], dtype=np.int64)
+    part_ids, surface_ids = node_ids(
+        surface_part, surface_index, assembly.n_parts, enc, training, rng
+    )
+    part_type = np.array([[p.type.index] for p in assembly.parts], dtype=np.float64)
+    surface_type = np.array([[int(s.type)] for s in surfaces], dtype=np.float64)
+    relation = scaled_relations(assembly, enc.distance_scale, surfaces)
+    part_static = np.hstack([part_type, enc.encode(part_ids, rng)])
+    surface_x = np.hstack([surface_type, enc.encode(surface_ids, rng)])
+    return AssemblyTensors(
+        part_static=torch.as_tensor(part_static, dtype=torch.float32),
+        surface_x=torch.as_tensor(surface_x, dtype=torch.float32),
+        relation=torch.as_tensor(relation, dtype=torch.float32),
+        surface_part=torch.as_tensor(surface_part),
+    )
+
+
+def state_flags(states: np.ndarray, n_parts: int) -> torch.Tensor:
+    """Assembled flags (len(states), n_parts) float32 of state bitmasks."""
+    states = np.asarray(states, dtype=np.int64).reshape(-1, 1)
+    return torch.as_tensor((states >> np.arange(n_parts)) & 1, dtype=torch.float32)
+
+
+def state_graph(tensors: AssemblyTensors, state: int) -> HeteroData:
+    """The per-state Assembly Graph (heterogeneous PyG data) of SPEC §4."""
+    n, s = tensors.n_parts, tensors.n_surfaces
+    data = HeteroData()
+    flags = state_flags(np.array([state]), n)[0]
+    data["part"].x = torch.cat([flags[:, None], tensors.part_static], dim=1)
+    data["surface"].x = tensors.surface_x
+    src, dst = torch.meshgrid(torch.arange(s), torch.arange(s), indexing="xy")
+    data[SURFACE_EDGE].edge_index = torch.stack([src.reshape(-1), dst.reshape(-1)])
+    data[SURFACE_EDGE].edge_attr = tensors.relation.T.reshape(-1, 1)
+    data[PART_EDGE].edge_index = torch.stack([torch.arange(s), tensors.surface_part])
+    return data
+
+
+def assembly_graph(
+    assembly: Assembly,
+    state: int,
+    enc: GraphEncoding | None = None,
+    training: bool = False,
+    rng: np.random.Generator | None = None,
+) -> HeteroData:
+    """Convenience: the Assembly Graph of `assembly` in `state` (bit i set = part i placed)."""
+    return state_graph(encode_assembly(assembly, enc or GraphEncoding(), training, rng), state)

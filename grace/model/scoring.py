@@ -1,0 +1,108 @@
+"""Next-step scores for planning: all states of an assembly share one surface embedding.
+
+`make_scorer(module)(assembly, states)` returns the (len(states), n_parts) scores of SPEC §6's
+policy for many states at once; the per-assembly work (surface blocks and both part-block
+variants, see grace_fast.py) is cached, so scoring the 2^N − 1 distinct states of Algorithm 1 costs
+one surface pass plus a small per-state step. Randomised test-time encodings (SPEC §9 ablation)
+are seeded by the module's seed and the assembly's content, so repeated calls agree.
+"""
+
+from __future__ import annotations
+
+import zlib
+from collections import OrderedDict
+
+import numpy as np
+import torch
+from torch_geometric.data import Batch
+
+from grace.domain.assembly import Assembly
+from grace.graphs.assembly_graph import AssemblyTensors, encode_assembly, state_flags, state_graph
+from grace.graphs.dense import DenseAssemblies
+from grace.model.grace_fast import part_block_pair, state_features, surface_embedding
+from grace.model.grace_pyg import GraceNet
+from grace.model.module import GraceModule
+
+
+def _fingerprint(assembly: Assembly) -> int:
+    data = repr([(p.name, str(p.type)) for p in assembly.parts]).encode()
+    data += b"".join(np.ascontiguousarray(p.pose).tobytes() for p in assembly.parts)
+    return zlib.crc32(np.ascontiguousarray(assembly.relations).tobytes(), zlib.crc32(data))
+
+
+def evaluation_tensors(module: GraceModule, assembly: Assembly) -> AssemblyTensors:
+    """The evaluation-time encoding of `assembly` (deterministic also for randomised variants)."""
+    rng = None
+    if module.enc.randomised:
+        rng = np.random.default_rng([module.seed, _fingerprint(assembly)])
+    return encode_assembly(assembly, module.enc, training=False, rng=rng)
+
+
+class Scorer:
+    """Callable `scorer(assembly, states) -> scores` with a small per-assembly cache."""
+
+    def __init__(self, module: GraceModule, impl: str | None = None, cache_size: int = 64):
+        self.module = module.eval()
+        self.impl = impl or module.impl
+        self.cache_size = cache_size
+        # Keyed by id(); the entry keeps the assembly alive, so the id cannot be reused meanwhile.
+        self._cache: OrderedDict[int, _Prepared] = OrderedDict()
+
+    def _prepared(self, assembly: Assembly) -> _Prepared:
+        hit = self._cache.get(id(assembly))
+        if hit is not None and hit.assembly is assembly:
+            self._cache.move_to_end(id(assembly))
+            return hit
+        prepared = _Prepared(assembly, evaluation_tensors(self.module, assembly))
+        self._cache[id(assembly)] = prepared
+        if len(self._cache) > self.cache_size:
+            self._cache.popitem(last=False)
+        return prepared
+
+    @torch.inference_mode()
+    def part_features(self, assembly: Assembly, states: np.ndarray) -> torch.Tensor:
+        """Part features after the part block (fast path), (len(states), n_parts, hidden)."""
+        net = self.module.net
+        prepared = self._prepared(assembly)
+        pair = None if net.cfg.state_surfaces else prepared.pair(net)
+        flags = state_flags(states, assembly.n_parts)
+        index = torch.zeros(len(flags), dtype=torch.long)
+        return state_features(net, prepared.dense, index, flags, pair)
+
+    @torch.inference_mode()
+    def __call__(self, assembly: Assembly, states: np.ndarray) -> np.ndarray:
+        states = np.asarray(states, dtype=np.int64).reshape(-1)
+        net = self.module.net
+        if self.impl == "fast":
+            logits = net.head(self.part_features(assembly, states)).squeeze(-1)
+        else:
+            tensors = self._prepared(assembly).tensors
+            batch = Batch.from_data_list([state_graph(tensors, int(s)) for s in states])
+            logits = net(batch).view(len(states), assembly.n_parts)
+        return torch.sigmoid(logits).numpy().astype(np.float64)
+
+
+class _Prepared:
+    """Per-assembly cache entry: encoded tensors and, once needed, both part-block variants."""
+
+    def __init__(self, assembly: Assembly, tensors: AssemblyTensors) -> None:
+        self.assembly = assembly
+        self.tensors = tensors
+        self.dense = DenseAssemblies.stack([tensors])
+        self._pair: tuple[torch.Tensor, torch.Tensor] | None = None
+
+    def pair(self, net: GraceNet) -> tuple[torch.Tensor, torch.Tensor]:
+        if self._pair is None:
+            self._pair = part_block_pair(net, self.dense, surface_embedding(net, self.dense))
+        return self._pair
+
+
+def make_scorer(module: GraceModule, impl: str | None = None) -> Scorer:
+    """Scorer over `module` (the fast shared-embedding path unless `impl="pyg"`)."""
+    return Scorer(module, impl)
+
+
+def part_embeddings(module: GraceModule, assembly: Assembly, state: int = 0) -> np.ndarray:
+    """Part node features (n_parts, hidden) after the part block, for mean-pooled classifiers."""
+    feats = Scorer(module, "fast", 1).part_features(assembly, np.array([state]))
+    return feats[0].numpy().astype(np.float64)

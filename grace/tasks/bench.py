@@ -1,0 +1,162 @@
+"""`python -m grace task=bench`: training and inference speed of the PyG and fast paths (issue 3).
+
+Side by side in one run, same weights, `cfg.threads` threads:
+- training: optimiser steps on batches of ≈`trainer.batch_size` A5 state graphs, timed from the
+  per-assembly encodings (collation into PyG graphs or padded tensors included) through the
+  backward pass and Adam step; figure = state graphs per second;
+- inference: one A7 state per call, end to end from the Assembly (encoding, graph, forward);
+  "cold" recomputes everything per call, "warm" reuses the per-assembly cache that planning over
+  many states of one assembly enjoys (fast path only; the PyG path has no shared work);
+- planning (issue 4, grace.planning.bench): scoring every order of one A7 assembly via its
+  distinct states versus the per-prefix recursion, with each path's scorer (untrained weights:
+  timing only; prefix passes capped at `task.prefix_passes` and extrapolated).
+Writes `bench.json` into the run's output folder and returns the fast/PyG training speed-up.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+from hydra.utils import instantiate
+from omegaconf import DictConfig
+
+from grace.data.atomic import write_text_atomic
+from grace.domain.sample import LabelledAssembly
+from grace.graphs.datamodule import StateDataset, collate_states
+from grace.model.grace_pyg import count_parameters
+from grace.model.loss import grace_loss
+from grace.model.module import GraceModule
+from grace.model.scoring import make_scorer
+from grace.model.training import make_module
+from grace.planning.bench import planner_benchmark
+
+log = logging.getLogger(__name__)
+
+
+def bench_assemblies(
+    cfg: DictConfig, size: int, rng: np.random.Generator
+) -> list[LabelledAssembly]:
+    """`task.assemblies` feasible assemblies of `size` from the configured simulator."""
+    simulator = instantiate(cfg.simulator)
+    out: list[LabelledAssembly] = []
+    for _ in range(50 * int(cfg.task.assemblies)):
+        sample = simulator.sample(size, rng)
+        if sample.truth.feasible:
+            out.append(sample)
+        if len(out) == int(cfg.task.assemblies):
+            return out
+    raise RuntimeError(f"bench: the simulator gave too few feasible A{size} assemblies")
+
+
+def _batches(dataset: StateDataset, batch_size: int) -> list[list[int]]:
+    batches, current, count = [], [], 0
+    for k, (_, states, _) in enumerate(dataset.chunks):
+        current.append(k)
+        count += len(states)
+        if count >= batch_size:
+            batches.append(current)
+            current, count = [], 0
+    if not batches:
+        raise RuntimeError("bench: too few states for one training batch; raise task.assemblies")
+    return batches
+
+
+def train_graphs_per_s(
+    module: GraceModule, dataset: StateDataset, batch_size: int, steps: int
+) -> float:
+    """State graphs per second of full training steps (collate, forward, backward, Adam).
+
+    The median over steps: the machine is shared, and one preempted step should not decide.
+    """
+    optimiser = torch.optim.Adam(module.parameters(), lr=1e-4)
+    module.train()
+    batches = _batches(dataset, batch_size)
+    rates = []
+    for step in range(steps + 1):
+        items = [dataset[k] for k in batches[step % len(batches)]]
+        start = time.perf_counter()
+        tensors, states, labels = zip(*items, strict=True)
+        batch = collate_states(tensors, states, labels, module.impl)
+        loss = grace_loss(module(batch), batch.labels, batch.flags, batch.mask, module.delta)
+        optimiser.zero_grad()
+        loss.backward()
+        optimiser.step()
+        if step:  # the first step warms up allocators and lazy initialisation
+            rates.append(batch.n_states / (time.perf_counter() - start))
+    return float(np.median(rates))
+
+
+def infer_ms_per_state(
+    module: GraceModule, samples: list[LabelledAssembly], impl: str, calls: int, warm: bool
+) -> float:
+    """Median milliseconds per single-state scorer call on the non-final states of `samples`."""
+    pairs = [(s.assembly, int(st)) for s in samples for st in s.truth.states[:-1]]
+    scorer = make_scorer(module, impl)
+    for assembly, state in pairs[:3]:
+        scorer(assembly, np.array([state]))
+    times = []
+    for k in range(calls):
+        assembly, state = pairs[k % len(pairs)]
+        if not warm:
+            scorer = make_scorer(module, impl)
+        start = time.perf_counter()
+        scorer(assembly, np.array([state]))
+        times.append(time.perf_counter() - start)
+    return 1000.0 * float(np.median(times))
+
+
+def run(cfg: DictConfig) -> float:
+    out_dir = Path(cfg.paths.output_dir)
+    rng = np.random.default_rng(int(cfg.seed))
+    train_size, infer_size = int(cfg.task.train_size), int(cfg.task.infer_size)
+    train = bench_assemblies(cfg, train_size, rng)
+    infer = bench_assemblies(cfg, infer_size, rng)
+    module = make_module(cfg)
+    torch.set_num_threads(int(cfg.threads))
+    batch_size = int(cfg.trainer.batch_size)
+    dataset = StateDataset(train, module.enc, "reachable", batch_size, True, int(cfg.seed))
+    state = {k: v.clone() for k, v in module.state_dict().items()}
+    speed, infer_cold, infer_warm = {}, {}, {}
+    for impl in ("pyg", "fast"):
+        module.load_state_dict(state)
+        module.impl = impl
+        speed[impl] = train_graphs_per_s(module, dataset, batch_size, int(cfg.task.train_steps))
+        module.eval()
+        calls = int(cfg.task.infer_calls)
+        infer_cold[impl] = {str(infer_size): infer_ms_per_state(module, infer, impl, calls, False)}
+        if impl == "fast":
+            infer_warm[impl] = {
+                str(infer_size): infer_ms_per_state(module, infer, impl, calls, True)
+            }
+        log.info(
+            "%s: %.0f graphs/s training, %.3f ms per A%d state",
+            impl,
+            speed[impl],
+            infer_cold[impl][str(infer_size)],
+            infer_size,
+        )
+    planning = {
+        impl: planner_benchmark(
+            make_scorer(module, impl), infer[0].assembly, prefix_passes=int(cfg.task.prefix_passes)
+        )
+        for impl in ("pyg", "fast")
+    }
+    result = {
+        "params": count_parameters(module.net),
+        "train_graphs_per_s": speed,
+        "infer_ms_per_state": infer_cold,
+        "infer_ms_per_state_warm": infer_warm,
+        "speedup_train": speed["fast"] / speed["pyg"],
+        "planning": planning,
+        "threads": torch.get_num_threads(),
+        "batch_size": batch_size,
+        "assemblies": {str(train_size): len(train), str(infer_size): len(infer)},
+    }
+    write_text_atomic(out_dir / "bench.json", json.dumps(result, indent=2) + "\n")
+    print(json.dumps(result, indent=2))
+    return result["speedup_train"]

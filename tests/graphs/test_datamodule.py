@@ -1,0 +1,83 @@
+import numpy as np
+import pytest
+import torch
+from hydra.utils import instantiate
+
+from grace.domain.assembly import full_mask
+from grace.graphs.datamodule import (
+    AssemblyBatchSampler,
+    StateDataModule,
+    collate_states,
+    training_states,
+)
+from grace.graphs.dense import DenseAssemblies
+from grace.graphs.encoding import GraphEncoding
+
+
+@pytest.fixture
+def samples(fake_simulator):
+    simulator = instantiate(fake_simulator)
+    rng = np.random.default_rng(1)
+    return [simulator.sample(n, rng) for n in (3, 4, 5, 6, 5, 4, 6, 6)]
+
+
+def test_state_sets(samples):
+    infeasible = [s for s in samples if not s.truth.feasible]
+    feasible = [s for s in samples if s.truth.feasible]
+    assert infeasible and feasible
+    for sample in samples:
+        states, labels = training_states(sample, "reachable")
+        assert full_mask(sample.size) not in states.tolist()
+        assert len(states) == len(sample.truth.states) - int(sample.truth.feasible)
+        sol_states, sol_labels = training_states(sample, "solution")
+        assert np.all(sol_labels != 0) and set(sol_states) <= set(states)
+    # infeasible assemblies still contribute their states, all with zero labels
+    states, labels = training_states(infeasible[0], "reachable")
+    assert len(states) > 0 and not labels.any()
+    assert len(training_states(infeasible[0], "solution")[0]) == 0
+    with pytest.raises(ValueError, match=r"trainer\.datamodule\.states"):
+        training_states(samples[0], "all")
+
+
+def test_sampler_packs_every_chunk_once_and_reshuffles():
+    sizes = [5, 100, 30, 256, 7, 80, 120]
+    sampler = AssemblyBatchSampler(sizes, 128, shuffle=True, seed=0)
+    first, second = list(sampler), list(sampler)
+    for batches in (first, second):
+        assert sorted(i for b in batches for i in b) == list(range(len(sizes)))
+        assert all(sum(sizes[i] for i in b[:-1]) < 128 for b in batches)
+    assert first != second
+
+
+@pytest.mark.parametrize("impl", ["fast", "pyg"])
+def test_loaders_cover_all_states_with_padding_masks(samples, impl):
+    dm = StateDataModule(samples[:5], samples[5:], GraphEncoding(), impl=impl, batch_size=16)
+    total = 0
+    for batch in dm.train_dataloader():
+        total += batch.n_states
+        sizes = batch.mask.sum(dim=1)
+        assert torch.all(batch.flags[~batch.mask] == 0) and torch.all(
+            batch.labels[~batch.mask] == 0
+        )
+        assert torch.all(batch.flags.sum(dim=1) < sizes)  # the full state is never a sample
+        if impl == "fast":
+            assert isinstance(batch.inputs, DenseAssemblies)
+        else:
+            assert batch.inputs["part"].num_nodes == int(sizes.sum())
+    assert total == sum(len(training_states(s, "reachable")[0]) for s in samples[:5])
+
+
+def test_collate_rejects_unknown_impl(samples):
+    with pytest.raises(ValueError, match=r"model\.impl"):
+        collate_states([], [], [], "jit")
+
+
+def test_state_mixing_draws_states_across_assemblies(samples):
+    dm = StateDataModule(samples, [], GraphEncoding(), batch_size=8, mixing="state")
+    batches = list(dm.train_dataloader())
+    assert sum(b.n_states for b in batches) == sum(
+        len(training_states(s, "reachable")[0]) for s in samples
+    )
+    assert max(len(b.inputs.part_mask) for b in batches) > 2  # several assemblies per batch
+    with pytest.raises(ValueError, match=r"trainer\.datamodule\.mixing"):
+        StateDataModule(samples, [], GraphEncoding(), mixing="random")

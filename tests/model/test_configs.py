@@ -1,0 +1,23 @@
+from pathlib import Path
+
+import pytest
+
+from grace.model.grace_pyg import count_parameters
+from grace.model.training import make_module
+
+MODELS = sorted(p.stem for p in (Path(__file__).parents[2] / "conf" / "model").glob("*.yaml"))
+
+
+def test_every_ablation_row_has_a_config():
+    assert {
+        "grace", "pe_random", "pe_none", "perm_parts_test", "perm_surfaces_test",
+        "perm_parts_train_test", "perm_surfaces_train_test",
+    } <= set(MODELS)  # fmt: skip
+
+
+@pytest.mark.parametrize("name", MODELS)
+def test_model_configs_build_the_same_network(cfg_factory, name):
+    module = make_module(cfg_factory(f"model={name}"))
+    assert module.impl == "fast"
+    extra = 2 * 94 if module.net.cfg.state_surfaces else 0  # the non-paper grace_state variant
+    assert count_parameters(module.net) == 51_701 + extra

@@ -1,0 +1,48 @@
+from pathlib import Path
+
+import numpy as np
+import pytest
+from omegaconf import OmegaConf
+
+from grace.model.module import GraceModule
+from grace.model.scoring import make_scorer, part_embeddings
+
+CONF = OmegaConf.load(Path(__file__).parents[2] / "conf" / "model" / "grace.yaml")
+
+
+def module(state_surfaces: bool = False, **graph) -> GraceModule:
+    model = OmegaConf.to_container(CONF, resolve=True)
+    model["graph"].update(graph)
+    model["state_surfaces"] = state_surfaces
+    return GraceModule(model)
+
+
+@pytest.mark.parametrize("state_surfaces", [False, True])
+def test_scorer_batches_states_and_matches_the_pyg_path(samples, state_surfaces):
+    m = module(state_surfaces)
+    fast, pyg = make_scorer(m), make_scorer(m, "pyg")
+    for sample in samples[:3]:
+        states = sample.truth.states
+        scores = fast(sample.assembly, states)
+        assert scores.shape == (len(states), sample.size)
+        assert scores.min() >= 0 and scores.max() <= 1
+        np.testing.assert_allclose(pyg(sample.assembly, states), scores, atol=1e-4)
+        single = np.vstack([fast(sample.assembly, np.array([s])) for s in states])
+        np.testing.assert_allclose(single, scores, atol=1e-4)
+
+
+def test_part_embeddings_shape(samples):
+    emb = part_embeddings(module(), samples[0].assembly)
+    assert emb.shape == (samples[0].size, 94) and np.isfinite(emb).all()
+
+
+@pytest.mark.parametrize("graph", [{"pe": "random"}, {"permute_parts": "test"}])
+def test_randomised_test_encoding_is_repeatable(samples, graph):
+    m = module(**graph)
+    sample = samples[3]
+    a = make_scorer(m)(sample.assembly, sample.truth.states)
+    b = make_scorer(m)(sample.assembly, sample.truth.states)
+    np.testing.assert_array_equal(a, b)
+    plain = module()
+    plain.load_state_dict(m.state_dict())
+    assert not np.allclose(make_scorer(plain)(sample.assembly, sample.truth.states), a)

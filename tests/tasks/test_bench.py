@@ -1,0 +1,32 @@
+import json
+from pathlib import Path
+
+from omegaconf import open_dict
+
+from grace.tasks.bench import run
+
+
+def test_bench_writes_side_by_side_figures(cfg_factory, fake_simulator):
+    cfg = cfg_factory(
+        "task=bench",
+        "task.assemblies=3",
+        "task.train_steps=2",
+        "task.infer_calls=3",
+        "task.prefix_passes=5",
+        "trainer.batch_size=16",
+        "threads=1",
+    )
+    with open_dict(cfg):
+        cfg.simulator = fake_simulator
+    speedup = run(cfg)
+    bench = json.loads(Path(cfg.paths.output_dir, "bench.json").read_text())
+    assert bench["params"] == 51_701
+    assert set(bench["train_graphs_per_s"]) == {"pyg", "fast"}
+    assert all(v > 0 for v in bench["train_graphs_per_s"].values())
+    for impl in ("pyg", "fast"):
+        assert bench["infer_ms_per_state"][impl]["7"] > 0
+    assert bench["infer_ms_per_state_warm"]["fast"]["7"] > 0
+    assert speedup == bench["train_graphs_per_s"]["fast"] / bench["train_graphs_per_s"]["pyg"]
+    for impl in ("pyg", "fast"):
+        planning = bench["planning"][impl]
+        assert planning["n_parts"] == 7 and planning["prefix_passes_measured"] == 5

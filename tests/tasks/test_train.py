@@ -1,0 +1,50 @@
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hydra.utils import instantiate
+from omegaconf import open_dict
+
+from grace.tasks.train import run, split_assemblies
+
+
+def test_split_holds_out_whole_assemblies_per_size(samples_by_size):
+    train, val, test = split_assemblies(samples_by_size, 0.15, 0.15, seed=0)
+    ids = [{id(s) for s in part} for part in (train, val, test)]
+    assert not (ids[0] & ids[1] or ids[0] & ids[2] or ids[1] & ids[2])
+    assert sum(map(len, ids)) == len(samples_by_size)
+    assert {s.size for s in test} == {s.size for s in samples_by_size}
+    again = split_assemblies(samples_by_size, 0.15, 0.15, seed=0)
+    assert [id(s) for s in again[2]] == [id(s) for s in test]
+    with pytest.raises(ValueError, match=r"task\.test_fraction"):
+        split_assemblies(samples_by_size, 1.5, 0.15, seed=0)
+
+
+@pytest.fixture
+def samples_by_size(fake_simulator):
+    simulator = instantiate(fake_simulator)
+    rng = np.random.default_rng(0)
+    return [simulator.sample(n, rng) for n in (3, 4, 5) for _ in range(10)]
+
+
+def test_task_train_writes_checkpoint_and_metrics(cfg_factory, fake_simulator, capsys):
+    cfg = cfg_factory(
+        "task=train",
+        "dataset.sizes={3: 8, 4: 8}",
+        "threads=1",
+        "trainer.max_epochs=2",
+        "trainer.progress_bar=false",
+    )
+    with open_dict(cfg):
+        cfg.simulator = fake_simulator
+    auc = run(cfg)
+    out = capsys.readouterr().out
+    assert "A3: held-out step AUC" in out and "A4: held-out step AUC" in out
+    metrics = json.loads(Path(cfg.paths.output_dir, "metrics.json").read_text())
+    assert metrics["params"] == 51_701
+    assert set(metrics["step_auc"]["per_size"]) == {"3", "4"}
+    assert metrics["assemblies"]["test"] >= 2
+    assert metrics["checkpoint"].endswith("best.ckpt")
+    assert math.isnan(auc) or 0.0 <= auc <= 1.0
