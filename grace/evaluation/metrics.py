@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
-from sklearn.metrics import auc, precision_recall_curve
+from sklearn.metrics import auc, precision_recall_curve, roc_auc_score, roc_curve
 
 
 def step_auc(scores: np.ndarray, labels: np.ndarray) -> float:
@@ -16,3 +16,85 @@ def step_auc(scores: np.ndarray, labels: np.ndarray) -> float:
         return float("nan")
     precision, recall, _ = precision_recall_curve(labels, np.asarray(scores).ravel())
     return float(auc(recall, precision))
+
+
+LAMBDAS = np.arange(100) / 100.0
+"""The λ sweep of the complete-sequence AUC: 100 values in [0, 1) (SPEC §7)."""
+
+
+def ir_precision(hits: np.ndarray, retrieved: np.ndarray) -> np.ndarray:
+    """|RET ∩ REL| / |RET|, and 1 where nothing was retrieved (the paper's empty-retrieval rule)."""
+    hits, retrieved = np.asarray(hits, dtype=float), np.asarray(retrieved, dtype=float)
+    return np.divide(hits, retrieved, out=np.ones_like(hits), where=retrieved > 0)
+
+
+def sequence_pr_curve(
+    retrieved: np.ndarray, hits: np.ndarray, relevant: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Mean IR recall and precision over assemblies per λ, closed by (0, 1) and (1, 0).
+
+    `retrieved` and `hits` are (assemblies, λ) counts of |RET| and |RET ∩ REL|, `relevant` the
+    |REL| per assembly; only assemblies with |REL| > 0 are given (recall is undefined otherwise).
+    Points run from the highest λ to the lowest, so recall never decreases along the curve.
+    """
+    retrieved, hits = np.atleast_2d(retrieved), np.atleast_2d(hits)
+    relevant = np.asarray(relevant, dtype=float)[:, None]
+    if (relevant <= 0).any():
+        raise ValueError("sequence_pr_curve: every assembly needs ≥ 1 ground-truth sequence")
+    precision = ir_precision(hits, retrieved).mean(axis=0)[::-1]
+    recall = (hits / relevant).mean(axis=0)[::-1]
+    return np.concatenate([[0.0], recall, [1.0]]), np.concatenate([[1.0], precision, [0.0]])
+
+
+def sequence_auc(retrieved: np.ndarray, hits: np.ndarray, relevant: np.ndarray) -> float:
+    """Complete-sequence AUC: area under the closed mean IR precision–recall curve (SPEC §7).
+
+    NaN when no assembly has a ground-truth sequence.
+    """
+    if len(relevant) == 0:
+        return float("nan")
+    recall, precision = sequence_pr_curve(retrieved, hits, relevant)
+    return float(auc(recall, precision))
+
+
+def precision_at_k(topk_relevant: list[list[bool]], relevant: np.ndarray, k: int) -> dict:
+    """P@k: IR precision of the k most probable retrieved sequences (SPEC §7).
+
+    `topk_relevant[a]` flags, best first, whether each retrieved sequence of assembly `a` is a
+    ground-truth one (at least its first k). Only assemblies with ≥ k ground-truth sequences
+    count. An assembly with no retrieved sequence scores 1 by the empty-retrieval rule, so
+    `empty` says how many of the counted assemblies that was; `value` is NaN if none count.
+    """
+    counted = [flags[:k] for flags, n in zip(topk_relevant, relevant, strict=True) if n >= k]
+    values = [float(np.mean(flags)) if flags else 1.0 for flags in counted]
+    return {
+        "value": float(np.mean(values)) if values else float("nan"),
+        "assemblies": len(counted),
+        "empty": sum(not flags for flags in counted),
+    }
+
+
+def feasibility_confusion(feasible: np.ndarray, found: np.ndarray) -> dict[str, int]:
+    """Confusion counts (positive = feasible); predicted feasible iff a sequence is found."""
+    feasible, found = np.asarray(feasible, dtype=bool), np.asarray(found, dtype=bool)
+    return {
+        "tp": int((feasible & found).sum()),
+        "fp": int((~feasible & found).sum()),
+        "tn": int((~feasible & ~found).sum()),
+        "fn": int((feasible & ~found).sum()),
+    }
+
+
+def feasibility_roc(
+    feasible: np.ndarray, score: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """ROC (FPR, TPR) and its AUC for a feasibility score; NaN AUC unless both classes occur.
+
+    ROC AUC does not depend on the class ratio, so it equals the paper's balanced-set figure in
+    expectation without discarding assemblies.
+    """
+    feasible = np.asarray(feasible, dtype=bool)
+    if feasible.all() or not feasible.any():
+        return np.array([0.0, 1.0]), np.array([0.0, 1.0]), float("nan")
+    fpr, tpr, _ = roc_curve(feasible, np.asarray(score, dtype=float))
+    return fpr, tpr, float(roc_auc_score(feasible, score))

@@ -1,0 +1,97 @@
+"""Fold splits of the paper's protocols (SPEC §8): intra-sized, many-to-one, one-to-many.
+
+All three use one rule: the assemblies are split into `folds` parts with a fixed seed, stratified
+by size; fold f tests on its own assemblies of the test sizes and trains on the other folds'
+assemblies of the train sizes. Validation (`val_fraction`) is drawn from the training part only,
+so no assembly ever appears in two of train, validation and test.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Fold:
+    """Indices into the data set of one cross-validation fold."""
+
+    index: int
+    train: tuple[int, ...]
+    val: tuple[int, ...]
+    test: tuple[int, ...]
+
+
+def protocol_sizes(
+    name: str,
+    available: Sequence[int],
+    train_sizes: Sequence[int] | None = None,
+    test_sizes: Sequence[int] | None = None,
+    train_exclude: Sequence[int] = (),
+    test_exclude: Sequence[int] = (),
+) -> tuple[list[int], list[int]]:
+    """Train and test sizes of a protocol: the listed sizes (`None` = all available) minus the
+    excluded ones (many-to-one excludes the test size from training, one-to-many the train size
+    from testing)."""
+    available = sorted(set(available))
+    train = sorted(set(available if train_sizes is None else train_sizes) - set(train_exclude))
+    test = sorted(set(available if test_sizes is None else test_sizes) - set(test_exclude))
+    missing = sorted((set(train) | set(test)) - set(available))
+    if missing:
+        raise ValueError(
+            f"protocol {name}: sizes {missing} are not in the data set (sizes {available}); "
+            "set protocol.train_sizes/test_sizes (or train_size/test_size) to sizes it holds"
+        )
+    if not train or not test:
+        raise ValueError(
+            f"protocol {name}: no {'train' if not train else 'test'} size left of {available}; "
+            "check protocol.train_sizes/test_sizes and train_size/test_size"
+        )
+    return train, test
+
+
+def make_folds(
+    sizes: Sequence[int],
+    train_sizes: Sequence[int],
+    test_sizes: Sequence[int],
+    folds: int,
+    val_fraction: float,
+    seed: int,
+) -> list[Fold]:
+    """Size-stratified k-fold split over assemblies (`sizes[i]` = size of assembly i)."""
+    if folds < 2:
+        raise ValueError(f"protocol.folds = {folds}: cross-validation needs at least 2 folds")
+    if not 0.0 <= val_fraction < 1.0:
+        raise ValueError(f"protocol.val_fraction = {val_fraction}: use a fraction in [0, 1)")
+    rng = np.random.default_rng(seed)
+    sizes = np.asarray(sizes)
+    fold_of = np.empty(len(sizes), dtype=np.int64)
+    for size in np.unique(sizes):
+        members = rng.permutation(np.flatnonzero(sizes == size))
+        fold_of[members] = np.arange(len(members)) % folds
+    train_ok, test_ok = np.isin(sizes, train_sizes), np.isin(sizes, test_sizes)
+    out = []
+    for f in range(folds):
+        train = np.flatnonzero((fold_of != f) & train_ok)
+        val = _validation(train, sizes, val_fraction, rng)
+        out.append(
+            Fold(
+                index=f,
+                train=tuple(int(i) for i in np.setdiff1d(train, val)),
+                val=tuple(int(i) for i in val),
+                test=tuple(int(i) for i in np.flatnonzero((fold_of == f) & test_ok)),
+            )
+        )
+    return out
+
+
+def _validation(
+    train: np.ndarray, sizes: np.ndarray, fraction: float, rng: np.random.Generator
+) -> np.ndarray:
+    picked = []
+    for size in np.unique(sizes[train]):
+        members = rng.permutation(train[sizes[train] == size])
+        picked.append(members[: round(fraction * len(members))])
+    return np.sort(np.concatenate(picked)) if picked else np.zeros(0, dtype=np.int64)

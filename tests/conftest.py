@@ -1,0 +1,137 @@
+"""Shared fixtures.
+
+`cfg_factory(*overrides)` composes `conf/config.yaml` with Hydra's compose API exactly as
+`python -m grace <overrides>` would, except that `paths.output_dir` and `paths.data_dir` point
+into the test's `tmp_path` (`tmp_path/output`, `tmp_path/data`) and HydraConfig is set, so
+`${hydra:...}` interpolations and `HydraConfig.get()` work inside task code. Example:
+
+    def test_something(cfg_factory):
+        cfg = cfg_factory("task=generate", "scale=smoke", "threads=1")
+        run(cfg)  # call the task function directly
+
+Overrides use the command-line syntax, including `~group` to drop a default that a test does not
+need. `fake_simulator` is a config for :class:`FakeSimulator`, a tiny deterministic stand-in
+with the real simulator's interface (generate / label / sample and the same `info` keys), for
+tests of the layers above the simulator that must not depend on its speed or tuning; tests get
+an instance with `hydra.utils.instantiate(fake_simulator)`. Never `import conftest`: every test
+folder's conftest shares that module name, so this module is also registered under the stable
+name `grace_tests_conftest`, which the config's `_target_` uses (worker processes inherit it).
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hydra import compose, initialize_config_dir
+from hydra.core.global_hydra import GlobalHydra
+from hydra.core.hydra_config import HydraConfig
+from omegaconf import DictConfig, OmegaConf, open_dict
+
+from grace.domain.assembly import Assembly, Part, PartType, canonical_order, planar_pose
+from grace.domain.orders import GroundTruth
+from grace.domain.sample import LabelledAssembly
+
+CONF_DIR = Path(__file__).resolve().parents[1] / "conf"
+MODULE_ALIAS = "grace_tests_conftest"
+sys.modules[MODULE_ALIAS] = sys.modules[__name__]
+
+
+@pytest.fixture
+def cfg_factory(tmp_path: Path) -> Callable[..., DictConfig]:
+    """Compose the project config with command-line style overrides; outputs go to tmp_path."""
+
+    def make(*overrides: str) -> DictConfig:
+        out, data = tmp_path / "output", tmp_path / "data"
+        GlobalHydra.instance().clear()
+        with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
+            cfg = compose(
+                config_name="config",
+                overrides=[f"paths.output_dir={out}", f"paths.data_dir={data}", *overrides],
+                return_hydra_config=True,
+            )
+        with open_dict(cfg):
+            cfg.hydra.runtime.output_dir = str(out)
+            cfg.hydra.job.num = 0
+        HydraConfig.instance().set_config(cfg)
+        with open_dict(cfg):
+            del cfg["hydra"]
+        return cfg
+
+    return make
+
+
+class FakeSimulator:
+    """Profiles in a row; a part needs a placed neighbour in the row (fixation).
+
+    Robot rules, decided by the geometry so `label` needs no randomness: a 300 mm profile cannot
+    be placed once a part two places away is (a non-local block; two such profiles make the
+    assembly infeasible by collision), and the first part is out of reach when it lies at
+    y = 30 (reach).
+    """
+
+    def __init__(self, spacing: float = 250.0) -> None:
+        self.spacing = spacing
+
+    def generate(self, n_parts: int, rng: np.random.Generator) -> Assembly:
+        parts = [
+            Part(
+                f"part_{i}",
+                PartType.PROFILE_300 if rng.random() < 0.4 else PartType.PROFILE_200,
+                planar_pose(i * self.spacing, 10.0 * int(rng.integers(0, 4)), 1),
+            )
+            for i in range(n_parts)
+        ]
+        return Assembly(tuple(canonical_order(parts)))
+
+    @staticmethod
+    def _rules(assembly: Assembly, robot: bool) -> Callable[[int, int], bool]:
+        long = [p.type is PartType.PROFILE_300 for p in assembly.parts]
+        out_of_reach = robot and assembly.parts[0].xy[1] == 30.0
+
+        def can_place(state: int, part: int) -> bool:
+            left, right = (
+                bool(state >> (part - 1) & 1) if part else False,
+                bool(state >> (part + 1) & 1),
+            )
+            if robot and part == 0 and out_of_reach:
+                return False
+            if (
+                robot
+                and long[part]
+                and any(0 <= q < len(long) and state >> q & 1 for q in (part - 2, part + 2))
+            ):
+                return False
+            return state == 0 or left or right
+
+        return can_place
+
+    def label(self, assembly: Assembly) -> LabelledAssembly:
+        start = time.perf_counter()
+        truth = GroundTruth.explore(assembly.n_parts, self._rules(assembly, robot=True))
+        fixation = GroundTruth.explore(assembly.n_parts, self._rules(assembly, robot=False))
+        cause = None
+        if not truth.feasible:
+            cause = "reach" if assembly.parts[0].xy[1] == 30.0 else "collision"
+        pruned = truth.feasible and truth.n_orders() < fixation.n_orders()
+        info = {
+            "cause": cause,
+            "robot_pruned": pruned,
+            "nonlocal_block": pruned,
+            "orders": truth.n_orders(),
+            "seconds": time.perf_counter() - start,
+        }
+        return LabelledAssembly(assembly, truth, info)
+
+    def sample(self, n_parts: int, rng: np.random.Generator) -> LabelledAssembly:
+        return self.label(self.generate(n_parts, rng))
+
+
+@pytest.fixture
+def fake_simulator() -> DictConfig:
+    """A `simulator` config that instantiates :class:`FakeSimulator`."""
+    return OmegaConf.create({"_target_": f"{MODULE_ALIAS}.FakeSimulator", "spacing": 250.0})

@@ -1,0 +1,78 @@
+import numpy as np
+import pytest
+
+from grace.domain.assembly import Assembly, Part, PartType, planar_pose
+from grace.domain.orders import GroundTruth
+from grace.domain.sample import LabelledAssembly
+from grace.evaluation.baselines import random_scorer
+from grace.evaluation.evaluate import evaluate_assembly, evaluate_by_size, step_test_states
+
+
+def _sample(n: int, can_place) -> LabelledAssembly:
+    parts = tuple(Part(f"p{i}", PartType.PROFILE_200, planar_pose(60.0 * i, 0)) for i in range(n))
+    return LabelledAssembly(Assembly(parts), GroundTruth.explore(n, can_place))
+
+
+# 3 parts, part 2 only last: orders (0,1,2) and (1,0,2)
+CHAIN = _sample(3, lambda s, p: p != 2 or s == 0b011)
+# 2 parts that block each other: infeasible
+STUCK = _sample(2, lambda s, p: False)
+
+
+def oracle(sample, wrong_first: float = 0.0):
+    """Scores 1 for valid next parts, 0 otherwise, and part 2 first at `wrong_first`; off the
+    ground truth every unplaced part scores 1."""
+    truth = sample.truth
+    labels = dict(zip(truth.states.tolist(), truth.completable.tolist(), strict=True))
+
+    def scorer(assembly, states):
+        masks = [labels.get(int(s), 0b111 & ~int(s)) for s in states]
+        out = np.array([[m >> p & 1 for p in range(3)] for m in masks], float)
+        out[states == 0, 2] = wrong_first
+        return out
+
+    return scorer
+
+
+def test_step_test_states_follow_orders_and_infeasible_empty_state():
+    assert step_test_states(CHAIN).tolist() == [0b000, 0b001, 0b010, 0b011]
+    assert step_test_states(STUCK).tolist() == [0]
+
+
+def test_oracle_is_perfect():
+    result = evaluate_assembly(oracle(CHAIN), CHAIN)
+    assert result.relevant == 2 and result.feasible
+    assert result.retrieved[1:].tolist() == [2] * 99  # λ > 0: exactly the truth
+    assert result.retrieved[0] == 6 and result.hits[0] == 2  # λ = 0: every order
+    assert result.topk_relevant == [True, True]
+    assert result.feasibility_score == 1.0
+    assert result.passes == 7
+    summary = evaluate_by_size(oracle(CHAIN), [CHAIN, CHAIN])[3]
+    assert summary["step_auc"] == summary["seq_auc"] == pytest.approx(1.0)
+    assert summary["p_at_k"]["2"] == {"value": 1.0, "assemblies": 2, "empty": 0}
+    assert np.isnan(summary["p_at_k"]["3"]["value"])
+
+
+def test_confident_wrong_first_step_costs_precision_at_one():
+    # part 2 first scores 0.6 ≥ 0.5: (2, ·, ·) orders are retrieved with probability 0.6 < 1, so
+    # P@1 stays 1, but above λ = 0.6 precision is 1 and below it 2 of 4 retrieved are right.
+    result = evaluate_assembly(oracle(CHAIN, wrong_first=0.6), CHAIN)
+    assert result.retrieved[60] == 4 and result.retrieved[61] == 2
+    assert result.hits[60] == 2
+    assert result.topk_relevant == [True, True, False]
+
+
+def test_infeasible_assembly_feeds_only_feasibility_and_step_auc():
+    summary = evaluate_by_size(random_scorer(0), [STUCK, CHAIN])
+    entry = summary[2]  # only the infeasible one has size 2
+    assert np.isnan(entry["seq_auc"]) and np.isnan(entry["step_auc"])
+    assert entry["feasibility"]["confusion"]["tp"] == 0
+    assert entry["no_sequence"] == 0
+
+
+def test_random_baseline_is_seeded_and_never_replaces_parts():
+    states = np.array([0, 0b101, 0b111 ^ 0b100])
+    a = random_scorer(3)(CHAIN.assembly, states)
+    assert np.array_equal(a, random_scorer(3)(CHAIN.assembly, states))
+    assert a[1, 0] == a[1, 2] == 0.0 and a[2, 0] == a[2, 1] == 0.0
+    assert ((a > 0) == ((states[:, None] >> np.arange(3) & 1) == 0)).all()

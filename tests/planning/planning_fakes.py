@@ -1,0 +1,54 @@
+"""Test helpers: the paper's plain per-prefix recursion (the reference) and fake policies."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from grace.domain.assembly import Assembly, Part, PartType, planar_pose
+
+
+def line_assembly(n: int) -> Assembly:
+    """N profiles side by side: the planner only needs N, the fake scorers ignore geometry."""
+    return Assembly(
+        tuple(Part(f"p{i}", PartType.PROFILE_200, planar_pose(60.0 * i, 0.0)) for i in range(n))
+    )
+
+
+class TableScorer:
+    """A fake policy with fixed random scores per state, quantised so ties with λ occur."""
+
+    def __init__(self, n: int, seed: int, levels: int = 10):
+        rng = np.random.default_rng(seed)
+        self.table = rng.integers(0, levels + 1, size=(1 << n, n)) / levels
+        self.states = 0
+
+    def __call__(self, assembly, states):
+        self.states += len(states)
+        return self.table[np.asarray(states)]
+
+
+def traverse(scorer, assembly, threshold: float):
+    """(sequences, probabilities, step scores, dead ends, forward passes), one pass per prefix."""
+    n = assembly.n_parts
+    out: list[tuple[tuple[int, ...], float, tuple[float, ...]]] = []
+    dead: list[tuple[int, ...]] = []
+    passes = 0
+
+    def recurse(state: int, prefix: tuple[int, ...], prob: float, steps: tuple[float, ...]):
+        nonlocal passes
+        if state == (1 << n) - 1:
+            out.append((prefix, prob, steps))
+            return
+        y = np.asarray(scorer(assembly, np.array([state], dtype=np.int64)), dtype=float)[0]
+        passes += 1
+        branched = False
+        for i in range(n):
+            if state >> i & 1 or y[i] < threshold:
+                continue
+            branched = True
+            recurse(state | 1 << i, (*prefix, i), prob * float(y[i]), (*steps, float(y[i])))
+        if not branched:
+            dead.append(prefix)
+
+    recurse(0, (), 1.0, ())
+    return out, dead, passes

@@ -1,0 +1,118 @@
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import experiment_fakes
+import pytest
+from omegaconf import OmegaConf
+
+from grace.tasks.experiment import run
+
+ROOT = Path(__file__).resolve().parents[2]
+CONF = ROOT / "conf"
+
+
+def _cfg(tmp_path, protocol: str, **top):
+    cfg = OmegaConf.create(
+        {
+            "seed": 0,
+            "threads": 1,
+            "train_size": 4,
+            "test_size": 4,
+            "paths": {"output_dir": str(tmp_path), "data_dir": str(tmp_path / "data")},
+            "task": OmegaConf.load(CONF / "task" / "experiment.yaml"),
+            "protocol": OmegaConf.load(CONF / "protocol" / f"{protocol}.yaml"),
+            **top,
+        }
+    )
+    cfg.task.loader = "experiment_fakes.load_dataset"
+    cfg.task.fit = "experiment_fakes.fit"
+    cfg.task.scorer = "experiment_fakes.make_scorer"
+    return cfg
+
+
+def _check_stat(stat):
+    assert set(stat) >= {"mean", "std"}
+    assert 0.0 <= stat["mean"] <= 1.0 and stat["std"] >= 0.0
+
+
+def check_schema(results: dict) -> None:
+    """The results.json schema of issue 4."""
+    assert set(results) >= {
+        "protocol",
+        "train_sizes",
+        "test_sizes",
+        "folds",
+        "per_size",
+        "baselines",
+        "seconds",
+    }
+    assert results["seconds"] > 0 and results["folds"] >= 2
+    for per_size in [results["per_size"], results["baselines"]["random"]["per_size"]]:
+        assert set(per_size) == {str(s) for s in results["test_sizes"]}
+        for entry in per_size.values():
+            if "step_auc" in entry:
+                _check_stat(entry["step_auc"])
+            if "seq_auc" in entry:
+                _check_stat(entry["seq_auc"])
+            for k, stat in entry.get("p_at_k", {}).items():
+                assert k in {"1", "2", "3"}
+                _check_stat(stat)
+                assert not math.isnan(stat["mean"])
+
+
+def test_intra_experiment_writes_results(tmp_path):
+    experiment_fakes.FITS.clear()
+    objective = run(_cfg(tmp_path, "intra"))
+    results = json.loads((tmp_path / "results.json").read_text())
+    check_schema(results)
+    assert results["protocol"] == "intra" and results["test_sizes"] == [3, 4, 5]
+    assert len(experiment_fakes.FITS) == 4
+    grace, rand = results["per_size"], results["baselines"]["random"]["per_size"]
+    assert objective == pytest.approx(
+        sum(e["seq_auc"]["mean"] for e in grace.values()) / len(grace)
+    )
+    for size in grace:  # the near-oracle must beat chance on every size
+        assert grace[size]["step_auc"]["mean"] > rand[size]["step_auc"]["mean"]
+        assert grace[size]["step_auc"]["mean"] > 0.95
+    md = (tmp_path / "results.md").read_text()
+    assert "Complete Sequence AUC" in md and "| random |" in md
+    assert (tmp_path / "pr_curves.png").stat().st_size > 0
+    assert (tmp_path / "p_at_k.png").stat().st_size > 0
+
+
+def test_inter_sized_protocols_use_top_level_sizes(tmp_path):
+    run(_cfg(tmp_path / "m2o", "many_to_one", test_size=5))
+    m2o = json.loads((tmp_path / "m2o" / "results.json").read_text())
+    assert m2o["train_sizes"] == [3, 4] and m2o["test_sizes"] == [5]
+    assert list(m2o["per_size"]) == ["5"]
+    run(_cfg(tmp_path / "o2m", "one_to_many", train_size=3))
+    o2m = json.loads((tmp_path / "o2m" / "results.json").read_text())
+    assert o2m["train_sizes"] == [3] and o2m["test_sizes"] == [4, 5]
+    check_schema(o2m)
+
+
+def test_python_m_grace_smoke_end_to_end(tmp_path):
+    """The real pipeline (simulator data, GRACE training, planning) in a temporary folder."""
+    out = tmp_path / "run"
+    cmd = [
+        sys.executable,
+        "-m",
+        "grace",
+        "scale=smoke",
+        "protocol.folds=2",
+        "trainer.max_epochs=2",
+        "trainer.progress_bar=false",
+        f"hydra.run.dir={out}",
+        f"paths.data_dir={tmp_path / 'data'}",
+    ]
+    subprocess.run(cmd, cwd=ROOT, check=True, capture_output=True, timeout=300)
+    text = (out / "results.json").read_text()
+    assert "NaN" not in text  # undefined metrics are absent, never NaN or 0
+    results = json.loads(text)
+    check_schema(results)
+    assert results["protocol"] == "intra" and results["folds"] == 2
+    assert results["test_sizes"] == [3, 4, 5, 6, 7]
+    assert (out / "results.md").exists() and (out / "pr_curves.png").exists()
