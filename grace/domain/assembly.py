@@ -230,7 +230,13 @@ class Assembly:
         return len(self.parts)
 
     def surfaces(self) -> list[Surface]:
-        return [s for i, p in enumerate(self.parts) for s in p.surfaces(i)]
+        """All surfaces, part by part; computed once per `parts` tuple (graphs ask for them on
+        every encoding, and inference latency is part of the product)."""
+        cached = self.__dict__.get("_surfaces")
+        if cached is None or cached[0] is not self.parts:
+            cached = (self.parts, [s for i, p in enumerate(self.parts) for s in p.surfaces(i)])
+            self.__dict__["_surfaces"] = cached
+        return list(cached[1])
 
     def surface_names(self) -> list[str]:
         """Raw surface names `<part>_surface_<k>` in surface order (SPEC §3)."""

@@ -13,6 +13,7 @@ The ablation variants of SPEC §9 are options here, not code forks:
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -23,12 +24,30 @@ PERMUTE_MODES = ("never", "test", "train_test")
 
 def sinusoidal_pe(ids: np.ndarray, dim: int) -> np.ndarray:
     """Vaswani et al. encoding: PE[p, 2i] = sin(p / 10000^(2i/d)), PE[p, 2i+1] = cos(same)."""
+    ids = np.asarray(ids, dtype=np.int64)
+    if ids.size and ids.min() >= 0 and ids.max() < _PE_TABLE_ROWS:
+        return _pe_table(dim)[ids]
+    return _sinusoidal(ids, dim)
+
+
+_PE_TABLE_ROWS = 64
+"""Ids below this are looked up in a table computed once per dimension (inference latency)."""
+
+
+def _sinusoidal(ids: np.ndarray, dim: int) -> np.ndarray:
     pos = np.asarray(ids, dtype=np.float64)[:, None]
     freq = np.power(10000.0, -np.arange(0, dim, 2, dtype=np.float64) / dim)
     pe = np.zeros((len(pos), dim))
     pe[:, 0::2] = np.sin(pos * freq)
     pe[:, 1::2] = np.cos(pos * freq[: dim // 2])
     return pe
+
+
+@functools.cache
+def _pe_table(dim: int) -> np.ndarray:
+    table = _sinusoidal(np.arange(_PE_TABLE_ROWS), dim)
+    table.flags.writeable = False
+    return table
 
 
 @dataclass(frozen=True)

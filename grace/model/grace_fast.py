@@ -24,32 +24,46 @@ _EPS = 1e-5  # torch_geometric InstanceNorm default
 _MASKED = -1e30
 
 
+def _norm_weights(mask: torch.Tensor, dtype: torch.dtype) -> tuple[torch.Tensor, torch.Tensor]:
+    """(mask, mask / count) as (..., rows, 1) floats: the masked mean is then one weighted sum."""
+    m = mask.unsqueeze(-1).to(dtype)
+    return m, m / m.sum(dim=-2, keepdim=True).clamp(min=1)
+
+
 def _masked_instance_norm(
-    x: torch.Tensor, mask: torch.Tensor, norm: torch.nn.Module
+    x: torch.Tensor, weights: tuple[torch.Tensor, torch.Tensor], norm: torch.nn.Module
 ) -> torch.Tensor:
-    """InstanceNorm over dim 1 counting only `mask`ed rows (biased variance, as PyG)."""
-    m = mask.unsqueeze(-1).to(x.dtype)
-    count = m.sum(dim=1, keepdim=True).clamp(min=1)
-    mean = (x * m).sum(dim=1, keepdim=True) / count
-    centred = (x - mean) * m
-    var = (centred * centred).sum(dim=1, keepdim=True) / count
-    return centred / torch.sqrt(var + _EPS) * norm.weight + norm.bias
+    """InstanceNorm over dim −2 counting only masked rows (biased variance, as PyG).
+
+    `weights` comes from :func:`_norm_weights`, computed once and shared by all blocks.
+    """
+    m, w = weights
+    centred = (x - (x * w).sum(dim=-2, keepdim=True)) * m
+    var = (centred.square() * w).sum(dim=-2, keepdim=True)
+    return torch.addcmul(norm.bias, centred * torch.rsqrt(var + _EPS), norm.weight)
 
 
 def surface_embedding(net: GraceNet, dense: DenseAssemblies) -> torch.Tensor:
-    """Surface node features after all surface blocks, (A, S, hidden); padding rows are 0."""
+    """Surface node features after all surface blocks, (A, S, hidden); padding rows are 0.
+
+    Written with as few tensor operations as possible: on CPU a small assembly's cost is the
+    per-operation overhead, not the arithmetic (issue 3: one A7 state in ≤ 1 ms).
+    """
     x = dense.surface_x
-    src_ok = dense.surface_mask.unsqueeze(1)  # (A, 1, S_src)
+    weights = _norm_weights(dense.surface_mask, x.dtype)
+    # Additive attention mask over source surfaces: padding sources get exp(−huge) = 0.
+    padding = (~dense.surface_mask).to(x.dtype).unsqueeze(1) * _MASKED  # (A, 1, S_src)
     rel = dense.relation.unsqueeze(-1)  # (A, S_dst, S_src, 1)
     for i, norm in enumerate(net.surface_norms):
         gat = net.surface_gat(i)
         xl, xr = gat.lin_l(x), gat.lin_r(x)
-        z = xr.unsqueeze(2) + xl.unsqueeze(1) + rel * gat.lin_edge.weight[:, 0]
-        score = (F.leaky_relu(z, gat.negative_slope) * gat.att[0, 0]).sum(-1)
-        alpha = torch.softmax(score.masked_fill(~src_ok, _MASKED), dim=-1)
-        out = alpha @ xl + gat.bias
-        x = torch.tanh(_masked_instance_norm(out, dense.surface_mask, norm))
-    return x * dense.surface_mask.unsqueeze(-1)
+        # The (A, S, S, hidden) pair tensor is the bulk of the work: built once, then updated
+        # in place (autograd allows it: neither add nor addcmul needs its output to go back).
+        z = (xr.unsqueeze(2) + xl.unsqueeze(1)).addcmul_(rel, gat.lin_edge.weight[:, 0])
+        score = F.leaky_relu_(z, gat.negative_slope) @ gat.att[0, 0] + padding
+        out = torch.softmax(score, dim=-1) @ xl + gat.bias
+        x = torch.tanh(_masked_instance_norm(out, weights, norm))
+    return x * weights[0]
 
 
 def part_block_pair(
@@ -59,20 +73,20 @@ def part_block_pair(
     gat = net.part_gat
     xl = gat.lin_l(surfaces)  # (A, S, H)
     w = gat.lin_r.weight
-    xr_static = dense.part_static @ w[:, 1:].T + gat.lin_r.bias  # (A, N, H)
+    xr_static = F.linear(dense.part_static, w[:, 1:], gat.lin_r.bias)  # (A, N, H)
     idx = dense.surface_part.unsqueeze(-1).expand(-1, -1, xr_static.shape[-1])
     xr_of_surface = torch.gather(xr_static, 1, idx)  # (A, S, H)
     n = xr_static.shape[1]
     own = dense.surface_part.unsqueeze(1) == torch.arange(n).view(1, n, 1)  # (A, N, S)
-    own = own & dense.surface_mask.unsqueeze(1)
-    outs = []
-    for flag in (0.0, 1.0):
-        z = xl + xr_of_surface + flag * w[:, 0]
-        score = (F.leaky_relu(z, gat.negative_slope) * gat.att[0, 0]).sum(-1)  # (A, S)
-        score = score.unsqueeze(1).expand(-1, n, -1).masked_fill(~own, _MASKED)
-        alpha = torch.softmax(score, dim=-1) * own
-        outs.append(alpha @ xl + gat.bias)
-    return outs[0], outs[1]
+    own = (own & dense.surface_mask.unsqueeze(1)).to(xl.dtype)
+    # Both flag values at once, along a leading dimension of 2: flag 0 adds nothing.
+    flag_w = torch.stack([torch.zeros_like(w[:, 0]), w[:, 0]]).view(2, 1, 1, -1)
+    z = (xl + xr_of_surface).unsqueeze(0) + flag_w  # (2, A, S, H)
+    score = F.leaky_relu_(z, gat.negative_slope) @ gat.att[0, 0]  # (2, A, S)
+    # A part attends to its own surfaces only: the others get exp(−huge) = 0.
+    score = score.unsqueeze(2) + (1.0 - own) * _MASKED  # (2, A, N, S)
+    out = (torch.softmax(score, dim=-1) * own) @ xl + gat.bias  # (2, A, N, H)
+    return out[0], out[1]
 
 
 def state_part_features(
@@ -87,8 +101,9 @@ def state_part_features(
     `state_assembly` (T,) indexes the assembly of each state, `flags` (T, N) its assembled flags.
     """
     out0, out1 = pair[0][state_assembly], pair[1][state_assembly]
-    h = out0 + flags.unsqueeze(-1) * (out1 - out0)
-    return torch.tanh(_masked_instance_norm(h, part_mask[state_assembly], net.part_norm))
+    h = torch.addcmul(out0, flags.unsqueeze(-1), out1 - out0)
+    weights = _norm_weights(part_mask[state_assembly], h.dtype)
+    return torch.tanh(_masked_instance_norm(h, weights, net.part_norm))
 
 
 def per_state(

@@ -48,6 +48,10 @@ class Scorer:
         # Keyed by id(); the entry keeps the assembly alive, so the id cannot be reused meanwhile.
         self._cache: OrderedDict[int, _Prepared] = OrderedDict()
 
+    def clear(self) -> None:
+        """Forget every cached assembly (the next call on any assembly starts cold)."""
+        self._cache.clear()
+
     def _prepared(self, assembly: Assembly) -> _Prepared:
         hit = self._cache.get(id(assembly))
         if hit is not None and hit.assembly is assembly:

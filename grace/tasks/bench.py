@@ -5,8 +5,9 @@ Side by side in one run, same weights, `cfg.threads` threads:
   per-assembly encodings (collation into PyG graphs or padded tensors included) through the
   backward pass and Adam step; figure = state graphs per second;
 - inference: one A7 state per call, end to end from the Assembly (encoding, graph, forward);
-  "cold" recomputes everything per call, "warm" reuses the per-assembly cache that planning over
-  many states of one assembly enjoys (fast path only; the PyG path has no shared work);
+  "cold" empties the scorer's per-assembly cache before every call, "warm" reuses the
+  per-assembly cache that planning over many states of one assembly enjoys (fast path only;
+  the PyG path has no shared work);
 - planning (issue 4, grace.planning.bench): scoring every order of one A7 assembly via its
   distinct states versus the per-prefix recursion, with each path's scorer (untrained weights:
   timing only; prefix passes capped at `task.prefix_passes` and extrapolated).
@@ -103,7 +104,7 @@ def infer_ms_per_state(
     for k in range(calls):
         assembly, state = pairs[k % len(pairs)]
         if not warm:
-            scorer = make_scorer(module, impl)
+            scorer.clear()
         start = time.perf_counter()
         scorer(assembly, np.array([state]))
         times.append(time.perf_counter() - start)
