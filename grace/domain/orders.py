@@ -122,6 +122,18 @@ class GroundTruth:
         """Next-step label mask of `state`: parts whose placement still allows completion."""
         return int(self.completable[self._index()[state]])
 
+    def order_states(self) -> np.ndarray:
+        """The decision states of the ground-truth orders (SPEC §7 step-AUC test states).
+
+        Every non-complete state on some complete order; for an infeasible assembly the empty
+        state, whose labels are all 0 (no first part leads to completion). These are the states
+        the original data (`solutions.csv`) describes.
+        """
+        if not self.feasible:
+            return np.zeros(1, dtype=np.int64)
+        keep = (self.completable != 0) & (self.states != full_mask(self.n_parts))
+        return self.states[keep].astype(np.int64)
+
     def path_counts(self, mask_of: str = "placeable") -> dict[int, int]:
         """Number of paths from the empty state to each state along `placeable` or `completable`."""
         masks = dict(zip(self.states.tolist(), getattr(self, mask_of).tolist(), strict=True))

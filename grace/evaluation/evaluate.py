@@ -17,7 +17,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from grace.domain.assembly import full_mask
 from grace.domain.sample import LabelledAssembly
 from grace.evaluation.metrics import (
     LAMBDAS,
@@ -49,15 +48,6 @@ class AssemblyEval:
     passes: int
 
 
-def step_test_states(sample: LabelledAssembly) -> np.ndarray:
-    """States on ground-truth orders (non-complete), or the empty state if infeasible."""
-    truth = sample.truth
-    if not truth.feasible:
-        return np.zeros(1, dtype=np.int64)
-    on_orders = truth.path_counts("completable")
-    return np.array(sorted(s for s in on_orders if s != full_mask(truth.n_parts)), dtype=np.int64)
-
-
 def evaluate_assembly(
     scorer: Scorer,
     sample: LabelledAssembly,
@@ -69,7 +59,7 @@ def evaluate_assembly(
     n = sample.size
     scored = score_states(scorer, sample.assembly, threshold=0.0)
     retrieved, hits = retrieval_counts(scored, sample.truth, lambdas)
-    states = step_test_states(sample)
+    states = sample.truth.order_states()
     valid = label_table(sample.truth)
     bits = np.int64(1) << np.arange(n, dtype=np.int64)
     best = top_k(table_scores(scored), n, k_max, threshold)

@@ -1,10 +1,12 @@
 """Per-state training samples of labelled assemblies, batched by assembly (SPEC §5, issue 3).
 
-A sample is one reachable state of one assembly with its next-step labels (the `completable`
-mask: a part is a valid next step iff placing it still allows completion). Infeasible assemblies
-contribute states with all-zero labels, which is what lets "no complete sequence found" predict
-infeasibility. `states="solution"` keeps only states on complete orders instead. The final state
-(all parts placed) is no decision and is left out.
+A sample is one state of one assembly with its next-step labels (the `completable` mask: a part
+is a valid next step iff placing it still allows completion). `states="orders"` (default) takes
+the decision states of the ground-truth orders, the same states the step AUC tests
+(`GroundTruth.order_states`): each infeasible assembly contributes its empty state with all-zero
+labels, which is what lets "no complete sequence found" predict infeasibility. `states="reachable"`
+adds every state the placement checks reach, dead ends included (all labels 0 there), which asks
+the network to look ahead. The final state (all parts placed) is no decision and is left out.
 
 With `mixing="assembly"` (default) batches hold about `batch_size` states drawn from whole
 assemblies (large ones split into chunks), so that the fast path computes each surface embedding
@@ -32,7 +34,7 @@ from grace.graphs.assembly_graph import AssemblyTensors, encode_assembly, state_
 from grace.graphs.dense import DenseAssemblies
 from grace.graphs.encoding import GraphEncoding
 
-STATE_SETS = ("reachable", "solution")
+STATE_SETS = ("orders", "reachable")
 MIXINGS = ("assembly", "state")
 IMPLS = ("fast", "pyg")
 
@@ -42,9 +44,10 @@ def training_states(sample: LabelledAssembly, states: str) -> tuple[np.ndarray, 
     if states not in STATE_SETS:
         raise ValueError(f"trainer.datamodule.states={states!r}: use one of {STATE_SETS}")
     truth = sample.truth
+    if states == "orders":
+        chosen = truth.order_states()
+        return chosen, truth.completable[np.searchsorted(truth.states, chosen)]
     keep = truth.states != full_mask(truth.n_parts)
-    if states == "solution":
-        keep &= truth.completable != 0
     return truth.states[keep], truth.completable[keep]
 
 

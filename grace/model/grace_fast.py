@@ -1,8 +1,5 @@
 """The fast exact path of GRACE: one surface embedding per assembly, dense padded attention.
 
-(The non-paper variant `state_surfaces`, see grace_pyg.NetConfig, shares nothing across states;
-it still runs on the dense tensors here, one row per state.)
-
 The surface blocks never see the state (SPEC §4–5: no assembled flag in surface features or
 surface edges), so all states of an assembly share one surface embedding. The part block's
 attention for part i depends on the state only through i's own flag, which is 0 or 1: we compute
@@ -10,9 +7,15 @@ both possible part-block outputs once per assembly, and a state just selects bet
 the per-state InstanceNorm, tanh and head. The surface graph is complete, so its attention runs
 on dense (assemblies × surfaces × surfaces) tensors. Same parameters as :class:`GraceNet`
 (equality with the PyG path is tested to 1e-5).
+
+The non-paper variant `state_blocks = k` (grace_pyg.NetConfig) shares only the first
+`surface_blocks − k` blocks across states; the last k blocks and the part block run once per
+state, still on dense tensors (one row per state).
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import torch
 import torch.nn.functional as F
@@ -43,18 +46,19 @@ def _masked_instance_norm(
     return torch.addcmul(norm.bias, centred * torch.rsqrt(var + _EPS), norm.weight)
 
 
-def surface_embedding(net: GraceNet, dense: DenseAssemblies) -> torch.Tensor:
-    """Surface node features after all surface blocks, (A, S, hidden); padding rows are 0.
+def run_surface_blocks(
+    net: GraceNet, dense: DenseAssemblies, x: torch.Tensor, blocks: range
+) -> torch.Tensor:
+    """Surface features (A, S, hidden) after surface blocks `blocks` from input `x`.
 
     Written with as few tensor operations as possible: on CPU a small assembly's cost is the
     per-operation overhead, not the arithmetic (issue 3: one A7 state in ≤ 1 ms).
     """
-    x = dense.surface_x
     weights = _norm_weights(dense.surface_mask, x.dtype)
     # Additive attention mask over source surfaces: padding sources get exp(−huge) = 0.
     padding = (~dense.surface_mask).to(x.dtype).unsqueeze(1) * _MASKED  # (A, 1, S_src)
     rel = dense.relation.unsqueeze(-1)  # (A, S_dst, S_src, 1)
-    for i, norm in enumerate(net.surface_norms):
+    for i in blocks:
         gat = net.surface_gat(i)
         xl, xr = gat.lin_l(x), gat.lin_r(x)
         # The (A, S, S, hidden) pair tensor is the bulk of the work: built once, then updated
@@ -62,8 +66,14 @@ def surface_embedding(net: GraceNet, dense: DenseAssemblies) -> torch.Tensor:
         z = (xr.unsqueeze(2) + xl.unsqueeze(1)).addcmul_(rel, gat.lin_edge.weight[:, 0])
         score = F.leaky_relu_(z, gat.negative_slope) @ gat.att[0, 0] + padding
         out = torch.softmax(score, dim=-1) @ xl + gat.bias
-        x = torch.tanh(_masked_instance_norm(out, weights, norm))
+        x = torch.tanh(_masked_instance_norm(out, weights, net.surface_norms[i]))
     return x * weights[0]
+
+
+def surface_embedding(net: GraceNet, dense: DenseAssemblies) -> torch.Tensor:
+    """The state-independent surface features, (A, S, ·): after every block that is blind to
+    the state (all of them in the paper's network); padding rows are 0."""
+    return run_surface_blocks(net, dense, dense.surface_x, range(net.cfg.first_state_block))
 
 
 def part_block_pair(
@@ -107,14 +117,15 @@ def state_part_features(
 
 
 def per_state(
-    dense: DenseAssemblies, state_assembly: torch.Tensor, flags: torch.Tensor
+    dense: DenseAssemblies, state_assembly: torch.Tensor, flags: torch.Tensor, static: torch.Tensor
 ) -> DenseAssemblies:
-    """One row per state, surface inputs prefixed with their part's flag (`state_surfaces`)."""
+    """One row per state: its assembly's `static` surface features prefixed with the flag of
+    each surface's part, the input of the first state-aware block (`state_blocks`)."""
     surface_part = dense.surface_part[state_assembly]
     surface_mask = dense.surface_mask[state_assembly]
     owner_flag = torch.gather(flags, 1, surface_part) * surface_mask
     return DenseAssemblies(
-        surface_x=torch.cat([owner_flag.unsqueeze(-1), dense.surface_x[state_assembly]], dim=-1),
+        surface_x=torch.cat([owner_flag.unsqueeze(-1), static[state_assembly]], dim=-1),
         relation=dense.relation[state_assembly],
         surface_mask=surface_mask,
         surface_part=surface_part,
@@ -123,26 +134,78 @@ def per_state(
     )
 
 
+@dataclass
+class SharedWork:
+    """What all states of the assemblies in a DenseAssemblies share, cached between calls."""
+
+    static: torch.Tensor  # (A, S, ·) state-blind surface features
+    pair: tuple[torch.Tensor, torch.Tensor] | None  # both part-block variants (no state_blocks)
+    relations: torch.Tensor | None  # (A, N, N, pair_readout) part-pair features, if any
+
+
+def pair_relations(net: GraceNet, dense: DenseAssemblies, static: torch.Tensor) -> torch.Tensor:
+    """Part-pair features of the pair readout (grace_pyg.NetConfig), (A, N, N, pair_readout):
+    the mean over surface pairs of the two parts, 0 on the diagonal and on padding."""
+    z = net.pair_dst(static).unsqueeze(2) + net.pair_src(static).unsqueeze(1)
+    z = F.leaky_relu_(z + net.pair_rel(dense.relation.unsqueeze(-1)), net.cfg.negative_slope)
+    n = dense.part_mask.shape[1]
+    own = (
+        dense.surface_part.unsqueeze(1) == torch.arange(n).view(1, n, 1)
+    ) & dense.surface_mask.unsqueeze(1)
+    own = own.to(z.dtype)
+    own = own / own.sum(dim=-1, keepdim=True).clamp(min=1)  # (A, N, S): mean over own surfaces
+    relations = torch.einsum("ans,astc,amt->anmc", own, z, own)
+    return relations * (1 - torch.eye(n, dtype=z.dtype)).view(1, n, n, 1)
+
+
+def shared_work(net: GraceNet, dense: DenseAssemblies) -> SharedWork:
+    """Compute the state-independent part of the network once for `dense`."""
+    static = surface_embedding(net, dense)
+    pair = None if net.cfg.state_blocks else part_block_pair(net, dense, static)
+    relations = pair_relations(net, dense, static) if net.cfg.pair_readout else None
+    return SharedWork(static, pair, relations)
+
+
+def pair_readout(
+    net: GraceNet,
+    relations: torch.Tensor,
+    part_mask: torch.Tensor,
+    state_assembly: torch.Tensor,
+    flags: torch.Tensor,
+    h: torch.Tensor,
+) -> torch.Tensor:
+    """Fuse the sums of pair features over placed and over unplaced other parts into `h`."""
+    rel = relations[state_assembly]  # (T, N, N, P)
+    placed = torch.einsum("tnmc,tm->tnc", rel, flags)
+    unplaced = rel.sum(dim=2) - placed
+    return torch.tanh(net.fuse(torch.cat([h, placed, unplaced], dim=-1)))
+
+
 def state_features(
     net: GraceNet,
     dense: DenseAssemblies,
     state_assembly: torch.Tensor,
     flags: torch.Tensor,
-    pair: tuple[torch.Tensor, torch.Tensor] | None = None,
+    shared: SharedWork | None = None,
 ) -> torch.Tensor:
     """Part features (T, N, hidden) for T states of the assemblies in `dense`.
 
-    `pair` may pass a cached :func:`part_block_pair` of `dense`. With `state_surfaces` the surface
-    blocks see the state, nothing is shared and every state gets its own dense surface pass.
+    `shared` may pass a cached :func:`shared_work` of `dense`.
     """
-    if net.cfg.state_surfaces:
-        rows = per_state(dense, state_assembly, flags)
-        pair = part_block_pair(net, rows, surface_embedding(net, rows))
+    if shared is None:
+        shared = shared_work(net, dense)
+    cfg = net.cfg
+    if shared.pair is not None:
+        h = state_part_features(net, shared.pair, dense.part_mask, state_assembly, flags)
+    else:
+        rows = per_state(dense, state_assembly, flags, shared.static)
+        blocks = range(cfg.first_state_block, cfg.surface_blocks)
+        pair = part_block_pair(net, rows, run_surface_blocks(net, rows, rows.surface_x, blocks))
         index = torch.arange(len(flags))
-        return state_part_features(net, pair, rows.part_mask, index, flags)
-    if pair is None:
-        pair = part_block_pair(net, dense, surface_embedding(net, dense))
-    return state_part_features(net, pair, dense.part_mask, state_assembly, flags)
+        h = state_part_features(net, pair, rows.part_mask, index, flags)
+    if shared.relations is not None:
+        h = pair_readout(net, shared.relations, dense.part_mask, state_assembly, flags, h)
+    return h
 
 
 def fast_logits(

@@ -13,6 +13,7 @@ import warnings
 from dataclasses import dataclass
 
 import torch
+import torch.nn.functional as F
 from torch import nn
 from torch_geometric.data import Batch, HeteroData
 from torch_geometric.nn import GATv2Conv, HeteroConv, InstanceNorm
@@ -24,17 +25,49 @@ from grace.graphs.assembly_graph import PART_EDGE, SURFACE_EDGE
 class NetConfig:
     """Network shape; the defaults are the paper's (51,701 trainable parameters).
 
-    `state_surfaces` (not in the paper, off by default) prefixes every surface's input with its
-    part's assembled flag. In the paper's network the state reaches a part only through its own
-    flag and the part-level InstanceNorm statistics, so "is my neighbour placed" is hard to read;
-    this variant lets the surface blocks see the state, at the price of the shared embedding.
+    `state_blocks` (not in the paper: 0 by default) lets the last k surface blocks see the state:
+    the input of block `surface_blocks − k` gets each surface's part assembled flag as one more
+    feature. In the paper's network the state reaches a part only through its own flag and the
+    part-level InstanceNorm statistics, so "is my neighbour placed" is hard to read. The blocks
+    before the first state-aware one stay shared by all states of an assembly (grace_fast.py).
+
+    `pair_readout` (not in the paper: 0 by default) is the width of a relational readout that
+    keeps the shared embedding: from the state-blind surface features it forms a feature vector
+    per ordered pair of parts, the mean over their surface pairs of
+    LeakyReLU(W_dst x_a + W_src x_b + w · relation_ab); a state then sums it over the other placed
+    parts and over the other unplaced parts, and one layer fuses both sums into the part features
+    before the head. So a part reads "which of my neighbours are placed, and which still wait" at
+    the cost of two small matrix products per state.
     """
 
     hidden: int = 94
     surface_blocks: int = 3
     negative_slope: float = 0.15
     pe_dim: int = 16
-    state_surfaces: bool = False
+    state_blocks: int = 0
+    pair_readout: int = 0
+
+    def __post_init__(self) -> None:
+        if not 0 <= self.state_blocks <= self.surface_blocks:
+            raise ValueError(
+                f"model.state_blocks={self.state_blocks}: use 0 to model.surface_blocks="
+                f"{self.surface_blocks}"
+            )
+
+    @property
+    def first_state_block(self) -> int:
+        """Index of the first surface block that sees the state (= surface_blocks if none)."""
+        return self.surface_blocks - self.state_blocks
+
+    def block_in(self, i: int) -> int:
+        """Input width of surface block i (+1 for the assembled flag at the first state block)."""
+        width = self.surface_in if i == 0 else self.hidden
+        return width + int(self.state_blocks > 0 and i == self.first_state_block)
+
+    @property
+    def static_width(self) -> int:
+        """Width of the state-blind surface features that the pair readout reads."""
+        return self.hidden if self.first_state_block > 0 else self.surface_in
 
     @property
     def part_in(self) -> int:
@@ -42,7 +75,7 @@ class NetConfig:
 
     @property
     def surface_in(self) -> int:
-        return 1 + self.pe_dim + int(self.state_surfaces)
+        return 1 + self.pe_dim
 
 
 class GraceNet(nn.Module):
@@ -56,7 +89,7 @@ class GraceNet(nn.Module):
             HeteroConv(
                 {
                     SURFACE_EDGE: GATv2Conv(
-                        cfg.surface_in if i == 0 else h,
+                        cfg.block_in(i),
                         h,
                         negative_slope=cfg.negative_slope,
                         edge_dim=1,
@@ -84,6 +117,12 @@ class GraceNet(nn.Module):
                 aggr="mean",
             )
         self.part_norm = InstanceNorm(h, affine=True, track_running_stats=False)
+        if cfg.pair_readout:
+            p, w = cfg.pair_readout, cfg.static_width
+            self.pair_dst = nn.Linear(w, p)
+            self.pair_src = nn.Linear(w, p, bias=False)
+            self.pair_rel = nn.Linear(1, p, bias=False)
+            self.fuse = nn.Linear(h + 2 * p, h)
         self.head = nn.Linear(h, 1)
 
     def surface_gat(self, i: int) -> GATv2Conv:
@@ -98,20 +137,46 @@ class GraceNet(nn.Module):
         surf_batch = _batch_vector(data, "surface")
         part_batch = _batch_vector(data, "part")
         x_surface = data["surface"].x
-        if self.cfg.state_surfaces:
-            src, owner = data[PART_EDGE].edge_index
-            flag = torch.zeros_like(x_surface[:, 0])
-            flag[src] = data["part"].x[owner, 0]
-            x_surface = torch.cat([flag.unsqueeze(-1), x_surface], dim=1)
         edges = {SURFACE_EDGE: data[SURFACE_EDGE].edge_index}
         attrs = {SURFACE_EDGE: data[SURFACE_EDGE].edge_attr}
-        for conv, norm in zip(self.surface_convs, self.surface_norms, strict=True):
+        static = x_surface  # the state-blind features: input of the first state-aware block
+        for i, (conv, norm) in enumerate(zip(self.surface_convs, self.surface_norms, strict=True)):
+            if self.cfg.state_blocks and i == self.cfg.first_state_block:
+                src, owner = data[PART_EDGE].edge_index
+                flag = torch.zeros_like(x_surface[:, 0])
+                flag[src] = data["part"].x[owner, 0]
+                x_surface = torch.cat([flag.unsqueeze(-1), x_surface], dim=1)
             out = conv({"surface": x_surface}, edges, edge_attr_dict=attrs)["surface"]
             x_surface = torch.tanh(norm(out, surf_batch))
+            if i < self.cfg.first_state_block:
+                static = x_surface
         x = {"surface": x_surface, "part": data["part"].x}
         out = self.part_conv(x, {PART_EDGE: data[PART_EDGE].edge_index})["part"]
         x_part = torch.tanh(self.part_norm(out, part_batch))
+        if self.cfg.pair_readout:
+            x_part = self._pair_readout(data, static, x_part)
         return self.head(x_part).squeeze(-1)
+
+    def _pair_readout(
+        self, data: HeteroData | Batch, static: torch.Tensor, x_part: torch.Tensor
+    ) -> torch.Tensor:
+        """The relational readout of `pair_readout` as messages along surface–surface edges."""
+        src, dst = data[SURFACE_EDGE].edge_index
+        surface, owner = data[PART_EDGE].edge_index
+        part_of = torch.empty_like(surface)
+        part_of[surface] = owner
+        n_own = torch.bincount(owner, minlength=x_part.shape[0]).to(static.dtype)
+        other = part_of[src] != part_of[dst]
+        src, dst = src[other], dst[other]
+        z = self.pair_dst(static[dst]) + self.pair_src(static[src])
+        z = F.leaky_relu(
+            z + self.pair_rel(data[SURFACE_EDGE].edge_attr[other]), self.cfg.negative_slope
+        )
+        z = z / (n_own[part_of[dst]] * n_own[part_of[src]]).unsqueeze(-1)
+        placed = data["part"].x[part_of[src], :1]
+        sums = torch.zeros(x_part.shape[0], 2 * z.shape[1], dtype=z.dtype)
+        sums.index_add_(0, part_of[dst], torch.cat([placed * z, (1 - placed) * z], dim=1))
+        return torch.tanh(self.fuse(torch.cat([x_part, sums], dim=1)))
 
 
 def _batch_vector(data: HeteroData | Batch, node_type: str) -> torch.Tensor:

@@ -25,7 +25,8 @@ def net_config(model: Mapping[str, Any]) -> NetConfig:
         surface_blocks=int(model["surface_blocks"]),
         negative_slope=float(model["negative_slope"]),
         pe_dim=int(model["graph"]["pe_dim"]),
-        state_surfaces=bool(model.get("state_surfaces", False)),
+        state_blocks=int(model.get("state_blocks", 0)),
+        pair_readout=int(model.get("pair_readout", 0)),
     )
 
 
@@ -40,7 +41,13 @@ class GraceModule(pl.LightningModule):
     `model` is the plain dict of the `model` config group (stored in the checkpoint).
     """
 
-    def __init__(self, model: dict[str, Any], lr: float = 0.0022, seed: int = 0) -> None:
+    def __init__(
+        self,
+        model: dict[str, Any],
+        lr: float = 0.0022,
+        seed: int = 0,
+        lr_decay: dict[str, Any] | None = None,
+    ) -> None:
         super().__init__()
         self.save_hyperparameters()
         if model["impl"] not in IMPLS:
@@ -51,6 +58,9 @@ class GraceModule(pl.LightningModule):
         self.delta = float(model["delta"])
         self.lr = lr
         self.seed = seed
+        self.lr_decay = lr_decay
+        # What the lr decay watches; fit() sets them to the early-stopping monitor.
+        self.monitor, self.monitor_mode = "val_loss", "min"
         self._outputs: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {"train": [], "val": []}
 
     def forward(self, batch: StateBatch) -> torch.Tensor:
@@ -89,5 +99,19 @@ class GraceModule(pl.LightningModule):
     def on_validation_epoch_end(self) -> None:
         self._log_auc("val")
 
-    def configure_optimizers(self) -> torch.optim.Optimizer:
-        return torch.optim.Adam(self.parameters(), lr=self.lr)
+    def configure_optimizers(self) -> Any:
+        """Adam at the paper's lr; with `lr_decay` (not in SPEC §5) the lr is multiplied by
+        `factor` whenever the monitored loss has not improved for `patience` epochs."""
+        optimiser = torch.optim.Adam(self.parameters(), lr=self.lr)
+        if not self.lr_decay:
+            return optimiser
+        decay = torch.optim.lr_scheduler.ReduceLROnPlateau(
+            optimiser,
+            mode=self.monitor_mode,
+            factor=float(self.lr_decay["factor"]),
+            patience=int(self.lr_decay["patience"]),
+        )
+        return {
+            "optimizer": optimiser,
+            "lr_scheduler": {"scheduler": decay, "monitor": self.monitor},
+        }

@@ -19,7 +19,7 @@ from torch_geometric.data import Batch
 from grace.domain.assembly import Assembly
 from grace.graphs.assembly_graph import AssemblyTensors, encode_assembly, state_flags, state_graph
 from grace.graphs.dense import DenseAssemblies
-from grace.model.grace_fast import part_block_pair, state_features, surface_embedding
+from grace.model.grace_fast import SharedWork, shared_work, state_features
 from grace.model.grace_pyg import GraceNet
 from grace.model.module import GraceModule
 
@@ -68,10 +68,9 @@ class Scorer:
         """Part features after the part block (fast path), (len(states), n_parts, hidden)."""
         net = self.module.net
         prepared = self._prepared(assembly)
-        pair = None if net.cfg.state_surfaces else prepared.pair(net)
         flags = state_flags(states, assembly.n_parts)
         index = torch.zeros(len(flags), dtype=torch.long)
-        return state_features(net, prepared.dense, index, flags, pair)
+        return state_features(net, prepared.dense, index, flags, prepared.shared(net))
 
     @torch.inference_mode()
     def __call__(self, assembly: Assembly, states: np.ndarray) -> np.ndarray:
@@ -87,18 +86,18 @@ class Scorer:
 
 
 class _Prepared:
-    """Per-assembly cache entry: encoded tensors and, once needed, both part-block variants."""
+    """Per-assembly cache entry: encoded tensors and, once needed, the states' shared work."""
 
     def __init__(self, assembly: Assembly, tensors: AssemblyTensors) -> None:
         self.assembly = assembly
         self.tensors = tensors
         self.dense = DenseAssemblies.stack([tensors])
-        self._pair: tuple[torch.Tensor, torch.Tensor] | None = None
+        self._shared: SharedWork | None = None
 
-    def pair(self, net: GraceNet) -> tuple[torch.Tensor, torch.Tensor]:
-        if self._pair is None:
-            self._pair = part_block_pair(net, self.dense, surface_embedding(net, self.dense))
-        return self._pair
+    def shared(self, net: GraceNet) -> SharedWork:
+        if self._shared is None:
+            self._shared = shared_work(net, self.dense)
+        return self._shared
 
 
 def make_scorer(module: GraceModule, impl: str | None = None) -> Scorer:

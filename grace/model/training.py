@@ -21,9 +21,11 @@ LOGGERS = ("csv", "tensorboard")
 
 
 def make_module(cfg: DictConfig) -> GraceModule:
-    """A fresh GraceModule from `cfg.model`, `cfg.trainer.lr` and `cfg.seed`."""
+    """A fresh GraceModule from `cfg.model`, `cfg.trainer` (lr, lr_decay) and `cfg.seed`."""
     model: dict[str, Any] = OmegaConf.to_container(cfg.model, resolve=True)  # type: ignore[assignment]
-    return GraceModule(model, lr=float(cfg.trainer.lr), seed=int(cfg.seed))
+    decay = cfg.trainer.get("lr_decay")
+    decay = OmegaConf.to_container(decay, resolve=True) if decay is not None else None
+    return GraceModule(model, lr=float(cfg.trainer.lr), seed=int(cfg.seed), lr_decay=decay)
 
 
 def _logger(kind: str, out_dir: Path) -> CSVLogger | TensorBoardLogger:
@@ -60,6 +62,7 @@ def fit(
         mixing=t.datamodule.get("mixing", "assembly"),
     )
     monitor, mode = (t.monitor, t.monitor_mode) if val else ("train_loss", "min")
+    module.monitor, module.monitor_mode = monitor, mode
     checkpoint = ModelCheckpoint(
         dirpath=out_dir / "checkpoints", filename="best", monitor=monitor, mode=mode, save_top_k=1
     )

@@ -120,7 +120,8 @@ def run(cfg: DictConfig) -> float:
     module = make_module(cfg)
     torch.set_num_threads(int(cfg.threads))
     batch_size = int(cfg.trainer.batch_size)
-    dataset = StateDataset(train, module.enc, "reachable", batch_size, True, int(cfg.seed))
+    states = cfg.trainer.datamodule.states
+    dataset = StateDataset(train, module.enc, states, batch_size, True, int(cfg.seed))
     state = {k: v.clone() for k, v in module.state_dict().items()}
     speed, infer_cold, infer_warm = {}, {}, {}
     for impl in ("pyg", "fast"):

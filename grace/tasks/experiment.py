@@ -12,13 +12,18 @@ from __future__ import annotations
 import logging
 import math
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import torch
 from hydra.core.hydra_config import HydraConfig
 from hydra.utils import get_method
+from joblib import Parallel, delayed
+from lightning.pytorch import seed_everything
 from omegaconf import DictConfig, OmegaConf
 
+from grace.domain.sample import LabelledAssembly
 from grace.evaluation.baselines import BASELINES
 from grace.evaluation.evaluate import evaluate_by_size
 from grace.evaluation.protocols import Fold, make_folds, protocol_sizes
@@ -70,32 +75,84 @@ def _policies(cfg: DictConfig, module: object, fold: Fold) -> dict[str, Scorer]:
     return policies
 
 
+@dataclass
+class FoldResult:
+    """Metrics of every policy on one fold's test assemblies, and the stage times."""
+
+    metrics: dict[str, dict[int, dict]]
+    train_s: float
+    evaluate_s: float
+
+
+def run_fold(
+    cfg: DictConfig,
+    fold: Fold,
+    train: list[LabelledAssembly],
+    val: list[LabelledAssembly],
+    test: list[LabelledAssembly],
+    threads: int,
+) -> FoldResult:
+    """Train on one fold and evaluate GRACE and the baselines on its test assemblies.
+
+    Seeded by `seed + fold index`, so a fold's result does not depend on which folds ran
+    before it or in which process.
+    """
+    seed_everything(int(cfg.seed) + fold.index, workers=True, verbose=False)
+    torch.set_num_threads(threads)
+    log.info(
+        "fold %d: train %d, val %d, test %d assemblies",
+        *(fold.index, len(train), len(val), len(test)),
+    )
+    tick = time.perf_counter()
+    module = get_method(cfg.task.fit)(
+        cfg, train, val, Path(cfg.paths.output_dir) / f"fold_{fold.index}"
+    )
+    train_s = time.perf_counter() - tick
+    tick = time.perf_counter()
+    ks = [int(k) for k in cfg.task.ks]
+    metrics = {
+        name: evaluate_by_size(scorer, test, ks, cfg.task.threshold)
+        for name, scorer in _policies(cfg, module, fold).items()
+    }
+    return FoldResult(metrics, train_s, time.perf_counter() - tick)
+
+
+def _run_folds(
+    cfg: DictConfig, data: list[LabelledAssembly], folds: list[Fold]
+) -> list[FoldResult]:
+    """All folds, `task.fold_jobs` at a time in separate processes (joblib), threads split."""
+    jobs = max(1, min(int(cfg.task.fold_jobs), len(folds)))
+    threads = max(1, int(cfg.threads) // jobs)
+    # Resolved here: worker processes have no Hydra runtime to resolve `${hydra:...}`.
+    cfg = OmegaConf.create(OmegaConf.to_container(cfg, resolve=True))
+    if jobs > 1 and "trainer" in cfg:
+        # Progress bars of parallel processes would interleave on one terminal.
+        cfg.trainer.progress_bar = False
+    tasks = (
+        delayed(run_fold)(
+            cfg,
+            fold,
+            [data[i] for i in fold.train],
+            [data[i] for i in fold.val],
+            [data[i] for i in fold.test],
+            threads,
+        )
+        for fold in folds
+    )
+    return list(Parallel(n_jobs=jobs)(tasks))
+
+
 def run(cfg: DictConfig) -> float:
     """Run the experiment of `cfg.protocol`; return the mean sequence AUC of GRACE."""
     start = time.perf_counter()
     out_dir = Path(cfg.paths.output_dir)
     data = get_method(cfg.task.loader)(cfg)
     train_sizes, test_sizes, folds = _folds(cfg, [sample.size for sample in data])
-    fit = get_method(cfg.task.fit)
-    ks = [int(k) for k in cfg.task.ks]
-    per_fold: dict[str, list[dict[int, dict]]] = {}
-    load_s, train_s, evaluate_s = time.perf_counter() - start, [], []
-    for fold in folds:
-        log.info(
-            "fold %d: train %d, val %d, test %d assemblies",
-            *(fold.index, len(fold.train), len(fold.val), len(fold.test)),
-        )
-        tick = time.perf_counter()
-        train, val = [data[i] for i in fold.train], [data[i] for i in fold.val]
-        module = fit(cfg, train, val, out_dir / f"fold_{fold.index}")
-        train_s.append(time.perf_counter() - tick)
-        tick = time.perf_counter()
-        test = [data[i] for i in fold.test]
-        for name, scorer in _policies(cfg, module, fold).items():
-            per_fold.setdefault(name, []).append(
-                evaluate_by_size(scorer, test, ks, cfg.task.threshold)
-            )
-        evaluate_s.append(time.perf_counter() - tick)
+    load_s = time.perf_counter() - start
+    fold_results = _run_folds(cfg, data, folds)
+    per_fold = {name: [r.metrics[name] for r in fold_results] for name in fold_results[0].metrics}
+    train_s = [r.train_s for r in fold_results]
+    evaluate_s = [r.evaluate_s for r in fold_results]
     per_size = aggregate(per_fold["GRACE"])
     baselines = {b: {"per_size": aggregate(per_fold[b])} for b in cfg.task.baselines}
     results = {

@@ -48,16 +48,13 @@ def split_assemblies(
     return train, val, test
 
 
-def state_scores(
-    scorer: Scorer, samples: list[LabelledAssembly], states: str = "reachable"
-) -> tuple[np.ndarray, np.ndarray]:
-    """Flat (scores, labels) of all training-style states of `samples` (SPEC §7 step AUC input)."""
+def state_scores(scorer: Scorer, samples: list[LabelledAssembly]) -> tuple[np.ndarray, np.ndarray]:
+    """Flat (scores, labels) over the step-AUC test states of `samples` (SPEC §7)."""
     scores, labels = [], []
     for sample in samples:
-        s, y = training_states(sample, states)
-        if len(s):
-            scores.append(scorer(sample.assembly, s).ravel())
-            labels.append(state_flags(y, sample.size).numpy().ravel())
+        s, y = training_states(sample, "orders")
+        scores.append(scorer(sample.assembly, s).ravel())
+        labels.append(state_flags(y, sample.size).numpy().ravel())
     if not scores:
         return np.zeros(0), np.zeros(0)
     return np.concatenate(scores), np.concatenate(labels)
@@ -78,13 +75,12 @@ def run(cfg: DictConfig) -> float:
     log.info("assemblies: %d train, %d val, %d test", len(train), len(val), len(test))
     module = fit(cfg, train, val, out_dir)
     scorer = make_scorer(module)
-    states = cfg.trainer.datamodule.states
     per_size: dict[str, float | None] = {}
     for size in sorted({s.size for s in test}):
-        auc = step_auc(*state_scores(scorer, [s for s in test if s.size == size], states))
+        auc = step_auc(*state_scores(scorer, [s for s in test if s.size == size]))
         per_size[str(size)] = _finite(auc)
         print(f"A{size}: held-out step AUC {auc:.4f}")
-    overall = step_auc(*state_scores(scorer, test, states)) if test else float("nan")
+    overall = step_auc(*state_scores(scorer, test)) if test else float("nan")
     print(f"all sizes: held-out step AUC {overall:.4f}")
     checkpoint = out_dir / "checkpoints" / "best.ckpt"
     metrics = {

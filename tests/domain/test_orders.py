@@ -27,6 +27,8 @@ def test_precedence_and_dead_end():
     assert gt.label(0) == 0b101
     assert gt.label(0b001) == 0b100  # placing 1 now leads to the dead end
     assert list(gt.dead_ends()) == [(0, 1)]
+    # the dead-end state 0b011 and the complete state are no decision states of the orders
+    assert gt.order_states().tolist() == [0b000, 0b001, 0b100, 0b101]
 
 
 def test_infeasible_and_from_orders_roundtrip():
@@ -34,6 +36,7 @@ def test_infeasible_and_from_orders_roundtrip():
     assert not gt.feasible
     assert gt.n_orders() == 0
     assert list(gt.dead_ends()) == [(0,)]
+    assert gt.order_states().tolist() == [0]  # infeasible: the empty state, all labels 0
     again = GroundTruth.from_orders(2, [], list(gt.dead_ends()))
     assert again == gt
 

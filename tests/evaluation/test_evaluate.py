@@ -5,7 +5,7 @@ from grace.domain.assembly import Assembly, Part, PartType, planar_pose
 from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
 from grace.evaluation.baselines import random_scorer
-from grace.evaluation.evaluate import evaluate_assembly, evaluate_by_size, step_test_states
+from grace.evaluation.evaluate import evaluate_assembly, evaluate_by_size
 
 
 def _sample(n: int, can_place) -> LabelledAssembly:
@@ -32,11 +32,6 @@ def oracle(sample, wrong_first: float = 0.0):
         return out
 
     return scorer
-
-
-def test_step_test_states_follow_orders_and_infeasible_empty_state():
-    assert step_test_states(CHAIN).tolist() == [0b000, 0b001, 0b010, 0b011]
-    assert step_test_states(STUCK).tolist() == [0]
 
 
 def test_oracle_is_perfect():

@@ -29,12 +29,16 @@ def test_state_sets(samples):
         states, labels = training_states(sample, "reachable")
         assert full_mask(sample.size) not in states.tolist()
         assert len(states) == len(sample.truth.states) - int(sample.truth.feasible)
-        sol_states, sol_labels = training_states(sample, "solution")
-        assert np.all(sol_labels != 0) and set(sol_states) <= set(states)
-    # infeasible assemblies still contribute their states, all with zero labels
+        on_orders, order_labels = training_states(sample, "orders")
+        assert set(on_orders) <= set(states)
+        assert order_labels.tolist() == [sample.truth.label(int(s)) for s in on_orders]
+        if sample.truth.feasible:
+            assert np.all(order_labels != 0)
+    # infeasible assemblies contribute states with zero labels: all reachable ones, or the empty
     states, labels = training_states(infeasible[0], "reachable")
     assert len(states) > 0 and not labels.any()
-    assert len(training_states(infeasible[0], "solution")[0]) == 0
+    states, labels = training_states(infeasible[0], "orders")
+    assert states.tolist() == [0] and labels.tolist() == [0]
     with pytest.raises(ValueError, match=r"trainer\.datamodule\.states"):
         training_states(samples[0], "all")
 

@@ -16,8 +16,14 @@ def test_paper_parameter_count():
     assert round(n / 1000, 1) == 51.7  # SPEC §5: 51.7 K
 
 
-def test_state_surfaces_variant_adds_one_surface_input():
-    assert count_parameters(GraceNet(NetConfig(state_surfaces=True))) == 51_701 + 2 * 94
+def test_state_blocks_variant_adds_one_surface_input():
+    assert count_parameters(GraceNet(NetConfig(state_blocks=1))) == 51_701 + 2 * 94
+
+
+def test_pair_readout_adds_pair_and_fuse_layers():
+    p, h = 32, 94
+    extra = (h * p + p) + h * p + p + ((h + 2 * p) * h + h)
+    assert count_parameters(GraceNet(NetConfig(pair_readout=p))) == 51_701 + extra
 
 
 def _both_paths(samples, dtype, cfg=NetConfig()):  # noqa: B008
@@ -40,10 +46,12 @@ def _both_paths(samples, dtype, cfg=NetConfig()):  # noqa: B008
     return ref, fast, ref_grads, fast_grads
 
 
-@pytest.mark.parametrize("state_surfaces", [False, True])
-def test_fast_path_equals_pyg_path(samples, state_surfaces):
+@pytest.mark.parametrize(
+    ("state_blocks", "pair_readout"), [(0, 0), (1, 0), (3, 0), (0, 8), (1, 8), (3, 8)]
+)
+def test_fast_path_equals_pyg_path(samples, state_blocks, pair_readout):
     """Same weights → same logits and parameter gradients, on a batch of mixed sizes (float64)."""
-    cfg = NetConfig(state_surfaces=state_surfaces)
+    cfg = NetConfig(state_blocks=state_blocks, pair_readout=pair_readout)
     ref, fast, ref_grads, fast_grads = _both_paths(samples, torch.float64, cfg)
     assert ref.shape == fast.shape
     torch.testing.assert_close(fast, ref, atol=1e-5, rtol=0)
@@ -60,3 +68,8 @@ def test_fast_path_matches_in_float32(samples):
     scale = max(float(g.abs().max()) for g in ref_grads)
     for g_ref, g_fast in zip(ref_grads, fast_grads, strict=True):
         torch.testing.assert_close(g_fast, g_ref, atol=1e-3 * scale, rtol=0)
+
+
+def test_state_blocks_must_fit_the_surface_blocks():
+    with pytest.raises(ValueError, match=r"model\.state_blocks=4"):
+        NetConfig(state_blocks=4)

@@ -10,16 +10,16 @@ from grace.model.scoring import make_scorer, part_embeddings
 CONF = OmegaConf.load(Path(__file__).parents[2] / "conf" / "model" / "grace.yaml")
 
 
-def module(state_surfaces: bool = False, **graph) -> GraceModule:
+def module(state_blocks: int = 0, pair_readout: int = 0, **graph) -> GraceModule:
     model = OmegaConf.to_container(CONF, resolve=True)
     model["graph"].update(graph)
-    model["state_surfaces"] = state_surfaces
+    model["state_blocks"], model["pair_readout"] = state_blocks, pair_readout
     return GraceModule(model)
 
 
-@pytest.mark.parametrize("state_surfaces", [False, True])
-def test_scorer_batches_states_and_matches_the_pyg_path(samples, state_surfaces):
-    m = module(state_surfaces)
+@pytest.mark.parametrize(("state_blocks", "pair_readout"), [(0, 0), (1, 0), (3, 0), (0, 8)])
+def test_scorer_batches_states_and_matches_the_pyg_path(samples, state_blocks, pair_readout):
+    m = module(state_blocks, pair_readout)
     fast, pyg = make_scorer(m), make_scorer(m, "pyg")
     for sample in samples[:3]:
         states = sample.truth.states

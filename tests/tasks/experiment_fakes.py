@@ -9,13 +9,17 @@ from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
 from grace.planning.counting import label_table
 
-TRUTH: dict[int, GroundTruth] = {}
-FITS: list[tuple[int, int]] = []
+TRUTH: dict[str, GroundTruth] = {}  # by assembly name; rebuilt on demand in worker processes
+FITS: list[tuple[int, int]] = []  # fits of this process (fold_jobs=1)
 
 
 def load_dataset(cfg) -> list[LabelledAssembly]:
+    return _puzzles(int(cfg.seed))
+
+
+def _puzzles(seed: int) -> list[LabelledAssembly]:
     """Random precedence puzzles of sizes 3–5; some have cycles and so are infeasible."""
-    rng = np.random.default_rng(cfg.seed)
+    rng = np.random.default_rng(seed)
     data = []
     for i in range(36):
         n = 3 + i % 3
@@ -26,8 +30,8 @@ def load_dataset(cfg) -> list[LabelledAssembly]:
         parts = tuple(
             Part(f"p{j}", PartType.PROFILE_300, planar_pose(60.0 * j, 10.0 * i)) for j in range(n)
         )
-        assembly = Assembly(parts, name=f"a{i}")
-        TRUTH[id(assembly)] = truth
+        assembly = Assembly(parts, name=f"s{seed}-a{i}")
+        TRUTH[assembly.name] = truth
         data.append(LabelledAssembly(assembly, truth))
     return data
 
@@ -42,7 +46,9 @@ def make_scorer(noise):
     rng = np.random.default_rng(0)
 
     def scorer(assembly, states):
-        labels = label_table(TRUTH[id(assembly)])[states]
+        if assembly.name not in TRUTH:
+            _puzzles(int(assembly.name[1 : assembly.name.index("-")]))
+        labels = label_table(TRUTH[assembly.name])[states]
         bits = (labels[:, None] >> np.arange(assembly.n_parts)) & 1
         return np.clip(0.1 + 0.8 * bits + rng.normal(0, noise, bits.shape), 0, 1)
 

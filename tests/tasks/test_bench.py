@@ -9,6 +9,7 @@ from grace.tasks.bench import run
 def test_bench_writes_side_by_side_figures(cfg_factory, fake_simulator):
     cfg = cfg_factory(
         "task=bench",
+        "model=grace",
         "task.assemblies=3",
         "task.train_steps=2",
         "task.infer_calls=3",

@@ -30,6 +30,7 @@ def _cfg(tmp_path, protocol: str, **top):
     cfg.task.loader = "experiment_fakes.load_dataset"
     cfg.task.fit = "experiment_fakes.fit"
     cfg.task.scorer = "experiment_fakes.make_scorer"
+    cfg.task.fold_jobs = 1  # FITS records the fits of this process
     return cfg
 
 
@@ -81,6 +82,15 @@ def test_intra_experiment_writes_results(tmp_path):
     assert "Complete Sequence AUC" in md and "| random |" in md
     assert (tmp_path / "pr_curves.png").stat().st_size > 0
     assert (tmp_path / "p_at_k.png").stat().st_size > 0
+
+
+def test_parallel_folds_give_the_same_results(tmp_path):
+    serial = _cfg(tmp_path / "serial", "intra")
+    parallel = _cfg(tmp_path / "parallel", "intra")
+    parallel.task.fold_jobs = 2
+    assert run(parallel) == run(serial)
+    a, b = (json.loads((tmp_path / d / "results.json").read_text()) for d in ("serial", "parallel"))
+    assert a["per_size"] == b["per_size"] and a["baselines"] == b["baselines"]
 
 
 def test_inter_sized_protocols_use_top_level_sizes(tmp_path):
