@@ -28,6 +28,7 @@ METRIC_ROWS = (
     ("P@2", ("p_at_k", "2")),
     ("P@3", ("p_at_k", "3")),
     ("Feasibility ROC AUC", ("feasibility", "roc_auc")),
+    ("Feasibility ROC AUC (classifier)", ("feasibility", "classifier_roc_auc")),
 )
 
 
@@ -69,6 +70,8 @@ def aggregate_size(folds: Sequence[dict]) -> dict:
         }
     }
     _put(feasibility, "roc_auc", mean_std([f["feasibility"]["roc_auc"] for f in folds]))
+    classifier = [f["feasibility"].get("classifier_roc_auc") for f in folds]
+    _put(feasibility, "classifier_roc_auc", mean_std(classifier))
     out["feasibility"] = feasibility
     return out
 
@@ -105,14 +108,30 @@ def cell(stat: dict | None) -> str:
     return text
 
 
+OPTIONAL_ROWS = frozenset({"Feasibility ROC AUC (classifier)"})
+"""Rows printed only where defined (runs without a classifier have none); the paper's rows always
+print, with `–` for an undefined metric."""
+
+
+def row_cells(label: str, stats: Sequence[dict | None]) -> list[str] | None:
+    """The cells of one metric row; None for an optional row undefined in every column."""
+    if label in OPTIONAL_ROWS and all(stat is None for stat in stats):
+        return None
+    return [cell(stat) for stat in stats]
+
+
 def metrics_table(policies: dict[str, dict[str, dict]], sizes: Sequence[str]) -> str:
-    """Markdown table: a row per (policy, metric), a column per test size (paper Table 2)."""
+    """Markdown table: a row per (policy, metric), a column per test size (paper Table 2).
+
+    An optional row (the classifier's) is left out where it is undefined for every size.
+    """
     head = "| Policy | Metric | " + " | ".join(f"A{s}" for s in sizes) + " |"
     lines = [head, "|" + " --- |" * (len(sizes) + 2)]
     for policy, per_size in policies.items():
         for label, path in METRIC_ROWS:
-            cells = [cell(lookup(per_size.get(s, {}), path)) for s in sizes]
-            lines.append(f"| {policy} | {label} | " + " | ".join(cells) + " |")
+            cells = row_cells(label, [lookup(per_size.get(s, {}), path) for s in sizes])
+            if cells is not None:
+                lines.append(f"| {policy} | {label} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 

@@ -73,7 +73,7 @@ def encode_assembly(
     part_type = np.array([[p.type.index] for p in assembly.parts], dtype=np.float64)
     surface_type = np.array([[int(s.type)] for s in surfaces], dtype=np.float64)
     relation = scaled_relations(assembly, enc.distance_scale, surfaces)
-    part_static = np.hstack([part_type, enc.encode(part_ids, rng)])
+    part_static = np.hstack([part_type, enc.encode(part_ids, rng, enc.part_pe)])
     surface_x = np.hstack([surface_type, enc.encode(surface_ids, rng)])
     return AssemblyTensors(
         part_static=torch.as_tensor(part_static, dtype=torch.float32),

@@ -9,6 +9,11 @@ The ablation variants of SPEC §9 are options here, not code forks:
   "none" (zeros, so the network keeps its shape and parameter count);
 - `permute_parts` / `permute_surfaces`: "never", "test" (only when evaluating) or "train_test"
   (also as augmentation in training). A permutation relabels ids; the graph itself is unchanged.
+
+Beyond the paper, `part_pe` may encode the part ids differently from the surface ids (null: as
+`pe`). `part_pe: none` is the one-to-many lead of issue 4: trained on A5, a network never sees the
+encodings of part ids 5 and 6 that every A7 graph carries, while the surface ids (which side of a
+part a surface is) stay informative at any size.
 """
 
 from __future__ import annotations
@@ -64,10 +69,13 @@ class GraphEncoding:
     permute_parts: str = "never"
     permute_surfaces: str = "never"
     distance_scale: float = 100.0
+    part_pe: str | None = None
 
     def __post_init__(self) -> None:
-        if self.pe not in PE_KINDS:
-            raise ValueError(f"model.graph.pe={self.pe!r}: use one of {PE_KINDS}")
+        for key in ("pe", "part_pe"):
+            value = getattr(self, key)
+            if value not in PE_KINDS and not (key == "part_pe" and value is None):
+                raise ValueError(f"model.graph.{key}={value!r}: use one of {PE_KINDS}")
         for key in ("permute_parts", "permute_surfaces"):
             if getattr(self, key) not in PERMUTE_MODES:
                 raise ValueError(f"model.graph.{key}={getattr(self, key)!r}: use {PERMUTE_MODES}")
@@ -78,17 +86,22 @@ class GraphEncoding:
     def randomised(self) -> bool:
         """True when encoding an assembly twice can give different inputs (needs an rng)."""
         return (
-            self.pe == "random" or self.permute_parts != "never" or self.permute_surfaces != "never"
+            "random" in (self.pe, self.part_pe)
+            or self.permute_parts != "never"
+            or self.permute_surfaces != "never"
         )
 
     def permutes(self, mode: str, training: bool) -> bool:
         return mode == "train_test" or (mode == "test" and not training)
 
-    def encode(self, ids: np.ndarray, rng: np.random.Generator | None) -> np.ndarray:
-        """Encode integer ids as `pe_dim` features according to `pe`."""
-        if self.pe == "sinusoidal":
+    def encode(
+        self, ids: np.ndarray, rng: np.random.Generator | None, kind: str | None = None
+    ) -> np.ndarray:
+        """Encode integer ids as `pe_dim` features according to `kind` (default `pe`)."""
+        kind = kind or self.pe
+        if kind == "sinusoidal":
             return sinusoidal_pe(ids, self.pe_dim)
-        if self.pe == "none":
+        if kind == "none":
             return np.zeros((len(ids), self.pe_dim))
         return _require(rng).standard_normal((len(ids), self.pe_dim))
 

@@ -169,16 +169,20 @@ def shared_work(net: GraceNet, dense: DenseAssemblies) -> SharedWork:
 def pair_readout(
     net: GraceNet,
     relations: torch.Tensor,
-    part_mask: torch.Tensor,
     state_assembly: torch.Tensor,
     flags: torch.Tensor,
     h: torch.Tensor,
 ) -> torch.Tensor:
-    """Fuse the sums of pair features over placed and over unplaced other parts into `h`."""
+    """Fuse the sums of pair features over placed and over unplaced other parts into `h`, then
+    run the further readout rounds (grace_pyg.NetConfig)."""
     rel = relations[state_assembly]  # (T, N, N, P)
     placed = torch.einsum("tnmc,tm->tnc", rel, flags)
     unplaced = rel.sum(dim=2) - placed
-    return torch.tanh(net.fuse(torch.cat([h, placed, unplaced], dim=-1)))
+    h = torch.tanh(net.fuse(torch.cat([h, placed, unplaced], dim=-1)))
+    for gate, fuse in zip(net.round_gates, net.round_fuses, strict=True):
+        message = torch.einsum("tnmc,tmc->tnc", rel, gate(h))
+        h = torch.tanh(fuse(torch.cat([h, message], dim=-1)))
+    return h
 
 
 def state_features(
@@ -204,7 +208,7 @@ def state_features(
         index = torch.arange(len(flags))
         h = state_part_features(net, pair, rows.part_mask, index, flags)
     if shared.relations is not None:
-        h = pair_readout(net, shared.relations, dense.part_mask, state_assembly, flags, h)
+        h = pair_readout(net, shared.relations, state_assembly, flags, h)
     return h
 
 

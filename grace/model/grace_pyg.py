@@ -37,7 +37,10 @@ class NetConfig:
     LeakyReLU(W_dst x_a + W_src x_b + w · relation_ab); a state then sums it over the other placed
     parts and over the other unplaced parts, and one layer fuses both sums into the part features
     before the head. So a part reads "which of my neighbours are placed, and which still wait" at
-    the cost of two small matrix products per state.
+    the cost of two small matrix products per state. Each of `readout_rounds − 1` further rounds
+    sends every part's fused features, projected to the pair width, through the same pair
+    features to the other parts (two hops: "is the neighbour that I would block still waiting,
+    and can it still be placed?").
     """
 
     hidden: int = 94
@@ -46,12 +49,17 @@ class NetConfig:
     pe_dim: int = 16
     state_blocks: int = 0
     pair_readout: int = 0
+    readout_rounds: int = 1
 
     def __post_init__(self) -> None:
         if not 0 <= self.state_blocks <= self.surface_blocks:
             raise ValueError(
                 f"model.state_blocks={self.state_blocks}: use 0 to model.surface_blocks="
                 f"{self.surface_blocks}"
+            )
+        if self.readout_rounds < 1 or (self.readout_rounds > 1 and not self.pair_readout):
+            raise ValueError(
+                f"model.readout_rounds={self.readout_rounds}: use 1, or more with pair_readout > 0"
             )
 
     @property
@@ -123,6 +131,9 @@ class GraceNet(nn.Module):
             self.pair_src = nn.Linear(w, p, bias=False)
             self.pair_rel = nn.Linear(1, p, bias=False)
             self.fuse = nn.Linear(h + 2 * p, h)
+            rounds = range(cfg.readout_rounds - 1)
+            self.round_gates = nn.ModuleList(nn.Linear(h, p) for _ in rounds)
+            self.round_fuses = nn.ModuleList(nn.Linear(h + p, h) for _ in rounds)
         self.head = nn.Linear(h, 1)
 
     def surface_gat(self, i: int) -> GATv2Conv:
@@ -176,7 +187,12 @@ class GraceNet(nn.Module):
         placed = data["part"].x[part_of[src], :1]
         sums = torch.zeros(x_part.shape[0], 2 * z.shape[1], dtype=z.dtype)
         sums.index_add_(0, part_of[dst], torch.cat([placed * z, (1 - placed) * z], dim=1))
-        return torch.tanh(self.fuse(torch.cat([x_part, sums], dim=1)))
+        x_part = torch.tanh(self.fuse(torch.cat([x_part, sums], dim=1)))
+        for gate, fuse in zip(self.round_gates, self.round_fuses, strict=True):
+            message = torch.zeros(x_part.shape[0], z.shape[1], dtype=z.dtype)
+            message.index_add_(0, part_of[dst], z * gate(x_part)[part_of[src]])
+            x_part = torch.tanh(fuse(torch.cat([x_part, message], dim=1)))
+        return x_part
 
 
 def _batch_vector(data: HeteroData | Batch, node_type: str) -> torch.Tensor:

@@ -27,6 +27,7 @@ def net_config(model: Mapping[str, Any]) -> NetConfig:
         pe_dim=int(model["graph"]["pe_dim"]),
         state_blocks=int(model.get("state_blocks", 0)),
         pair_readout=int(model.get("pair_readout", 0)),
+        readout_rounds=int(model.get("readout_rounds", 1)),
     )
 
 

@@ -71,6 +71,7 @@ def fit(
         devices=1,
         max_epochs=int(t.max_epochs),
         max_time=t.max_time,
+        gradient_clip_val=t.get("gradient_clip"),
         logger=_logger(t.logger, out_dir),
         callbacks=[EarlyStopping(monitor=monitor, mode=mode, patience=int(t.patience)), checkpoint],
         enable_progress_bar=bool(t.progress_bar),

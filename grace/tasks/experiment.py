@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import torch
 from hydra.core.hydra_config import HydraConfig
-from hydra.utils import get_method
+from hydra.utils import get_method, instantiate
 from joblib import Parallel, delayed
 from lightning.pytorch import seed_everything
 from omegaconf import DictConfig, OmegaConf
@@ -26,6 +26,7 @@ from omegaconf import DictConfig, OmegaConf
 from grace.domain.sample import LabelledAssembly
 from grace.evaluation.baselines import BASELINES
 from grace.evaluation.evaluate import evaluate_by_size
+from grace.evaluation.feasibility_classifier import classifier_roc_auc
 from grace.evaluation.protocols import Fold, make_folds, protocol_sizes
 from grace.evaluation.report import aggregate, write_results
 from grace.planning.sequences import Scorer
@@ -114,6 +115,11 @@ def run_fold(
         name: evaluate_by_size(scorer, test, ks, cfg.task.threshold)
         for name, scorer in _policies(cfg, module, fold).items()
     }
+    estimator = OmegaConf.select(cfg, "classifier.estimator")
+    if estimator is not None:
+        roc = classifier_roc_auc(instantiate(estimator), module, train + val, test)
+        for size, value in roc.items():
+            metrics["GRACE"][size]["feasibility"]["classifier_roc_auc"] = value
     return FoldResult(metrics, train_s, time.perf_counter() - tick)
 
 

@@ -17,7 +17,7 @@ from pathlib import Path
 from omegaconf import DictConfig
 
 from grace.data.atomic import write_text_atomic
-from grace.evaluation.report import METRIC_ROWS, cell, lookup
+from grace.evaluation.report import METRIC_ROWS, cell, lookup, row_cells
 
 log = logging.getLogger(__name__)
 
@@ -90,8 +90,11 @@ def table2_markdown(table2: dict) -> str:
     lines = [head, "|" + " --- |" * (len(columns) + 2)]
     for name, by_protocol in table2.items():
         for label, path in METRIC_ROWS:
-            cells = [cell(lookup(by_protocol.get(p, {}).get(s), path)) for p, s in columns]
-            lines.append(f"| {name} | {label} | " + " | ".join(cells) + " |")
+            cells = row_cells(
+                label, [lookup(by_protocol.get(p, {}).get(s), path) for p, s in columns]
+            )
+            if cells is not None:
+                lines.append(f"| {name} | {label} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 

@@ -57,3 +57,25 @@ def test_results_files_in_paper_layout(tmp_path):
     assert "| GRACE | P@3 | – |" in md
     assert md == results_markdown(results)
     assert not list(tmp_path.glob(".*tmp"))
+
+
+def test_classifier_row_appears_only_with_a_classifier(tmp_path):
+    with_classifier = [_fold(1.0, 0.9, 1.0), _fold(1.0, 0.9, 1.0)]
+    for fold, value in zip(with_classifier, (0.8, 0.6), strict=True):
+        fold["feasibility"]["classifier_roc_auc"] = value
+    results = {
+        "protocol": "intra",
+        "train_sizes": [5],
+        "test_sizes": [5],
+        "folds": 2,
+        "baselines": {},
+        "seconds": 1.0,
+    }
+    plain = results_markdown({**results, "per_size": aggregate([{5: _fold(1.0, 0.9, 1.0)}])})
+    assert "(classifier)" not in plain
+    per_size = aggregate([{5: fold} for fold in with_classifier])
+    stat = per_size["5"]["feasibility"]["classifier_roc_auc"]
+    assert abs(stat["mean"] - 0.7) < 1e-12 and abs(stat["std"] - 0.1) < 1e-12
+    assert "| GRACE | Feasibility ROC AUC (classifier) | 0.70 ± 0.10 |" in results_markdown(
+        {**results, "per_size": per_size}
+    )

@@ -42,6 +42,13 @@ def test_node_features_per_spec():
     np.testing.assert_allclose(g["surface"].x[:, 1:], sinusoidal_pe(surface_ids, 16), atol=1e-6)
 
 
+def test_part_pe_none_blanks_part_ids_only():
+    g = assembly_graph(frame(), state=0, enc=GraphEncoding(part_pe="none"))
+    assert not g["part"].x[:, 2:].any()
+    surface_ids = [1, 2, 3, 4, 1, 2, 3, 4, 1, 2]
+    np.testing.assert_allclose(g["surface"].x[:, 1:], sinusoidal_pe(surface_ids, 16), atol=1e-6)
+
+
 def test_edges_per_spec():
     a = frame()
     g = assembly_graph(a, state=0)

@@ -25,7 +25,13 @@ def test_pe_kinds():
 
 
 @pytest.mark.parametrize(
-    ("field", "value"), [("pe", "learned"), ("permute_parts", "always"), ("distance_scale", 0.0)]
+    ("field", "value"),
+    [
+        ("pe", "learned"),
+        ("part_pe", "onehot"),
+        ("permute_parts", "always"),
+        ("distance_scale", 0.0),
+    ],
 )
 def test_bad_options_name_the_key(field, value):
     with pytest.raises(ValueError, match=r"model\.graph"):

@@ -16,7 +16,7 @@ def test_every_ablation_row_has_a_config():
 
 
 # Variants beyond the paper; every other model config is the paper's network (51,701 parameters).
-EXTENDED = {"grace_state": 51_889, "grace_relational": 78_775}
+EXTENDED = {"grace_state": 51_889, "grace_relational": 132_781}
 
 
 @pytest.mark.parametrize("name", MODELS)

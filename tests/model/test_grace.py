@@ -47,11 +47,12 @@ def _both_paths(samples, dtype, cfg=NetConfig()):  # noqa: B008
 
 
 @pytest.mark.parametrize(
-    ("state_blocks", "pair_readout"), [(0, 0), (1, 0), (3, 0), (0, 8), (1, 8), (3, 8)]
+    ("state_blocks", "pair_readout", "rounds"),
+    [(0, 0, 1), (1, 0, 1), (3, 0, 1), (0, 8, 1), (1, 8, 1), (3, 8, 1), (0, 8, 3)],
 )
-def test_fast_path_equals_pyg_path(samples, state_blocks, pair_readout):
+def test_fast_path_equals_pyg_path(samples, state_blocks, pair_readout, rounds):
     """Same weights → same logits and parameter gradients, on a batch of mixed sizes (float64)."""
-    cfg = NetConfig(state_blocks=state_blocks, pair_readout=pair_readout)
+    cfg = NetConfig(state_blocks=state_blocks, pair_readout=pair_readout, readout_rounds=rounds)
     ref, fast, ref_grads, fast_grads = _both_paths(samples, torch.float64, cfg)
     assert ref.shape == fast.shape
     torch.testing.assert_close(fast, ref, atol=1e-5, rtol=0)
@@ -73,3 +74,8 @@ def test_fast_path_matches_in_float32(samples):
 def test_state_blocks_must_fit_the_surface_blocks():
     with pytest.raises(ValueError, match=r"model\.state_blocks=4"):
         NetConfig(state_blocks=4)
+
+
+def test_readout_rounds_need_a_pair_readout():
+    with pytest.raises(ValueError, match=r"model\.readout_rounds=2"):
+        NetConfig(readout_rounds=2)
