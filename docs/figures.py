@@ -2,7 +2,8 @@
 
 `infeasibility.png`: hand-built assemblies labelled by the MuJoCo robot cell of
 `conf/simulator/dual_arm.yaml`, with each part's slide motion drawn as an arrow and the orders
-the simulator found. `topview.png` comes from `python -m grace task=generate` (copied by hand).
+the simulator found. `topview.png` is the one `python -m grace task=generate` writes into its run
+folder.
 """
 
 from __future__ import annotations
