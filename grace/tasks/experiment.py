@@ -145,7 +145,8 @@ def _run_folds(
         )
         for fold in folds
     )
-    return list(Parallel(n_jobs=jobs)(tasks))
+    # Processes, never threads: folds seed the global RNGs, which threads would share.
+    return list(Parallel(n_jobs=jobs, backend="loky")(tasks))
 
 
 def run(cfg: DictConfig) -> float:
