@@ -76,6 +76,13 @@ def surface_embedding(net: GraceNet, dense: DenseAssemblies) -> torch.Tensor:
     return run_surface_blocks(net, dense, dense.surface_x, range(net.cfg.first_state_block))
 
 
+def _ownership(dense: DenseAssemblies, dtype: torch.dtype) -> torch.Tensor:
+    """(A, N, S) 1 where surface s belongs to part n, 0 elsewhere and on padding."""
+    n = dense.part_mask.shape[1]
+    own = dense.surface_part.unsqueeze(1) == torch.arange(n).view(1, n, 1)
+    return (own & dense.surface_mask.unsqueeze(1)).to(dtype)
+
+
 def part_block_pair(
     net: GraceNet, dense: DenseAssemblies, surfaces: torch.Tensor
 ) -> tuple[torch.Tensor, torch.Tensor]:
@@ -86,9 +93,7 @@ def part_block_pair(
     xr_static = F.linear(dense.part_static, w[:, 1:], gat.lin_r.bias)  # (A, N, H)
     idx = dense.surface_part.unsqueeze(-1).expand(-1, -1, xr_static.shape[-1])
     xr_of_surface = torch.gather(xr_static, 1, idx)  # (A, S, H)
-    n = xr_static.shape[1]
-    own = dense.surface_part.unsqueeze(1) == torch.arange(n).view(1, n, 1)  # (A, N, S)
-    own = (own & dense.surface_mask.unsqueeze(1)).to(xl.dtype)
+    own = _ownership(dense, xl.dtype)
     # Both flag values at once, along a leading dimension of 2: flag 0 adds nothing.
     flag_w = torch.stack([torch.zeros_like(w[:, 0]), w[:, 0]]).view(2, 1, 1, -1)
     z = (xl + xr_of_surface).unsqueeze(0) + flag_w  # (2, A, S, H)
@@ -149,11 +154,8 @@ def pair_relations(net: GraceNet, dense: DenseAssemblies, static: torch.Tensor) 
     z = net.pair_dst(static).unsqueeze(2) + net.pair_src(static).unsqueeze(1)
     z = F.leaky_relu_(z + net.pair_rel(dense.relation.unsqueeze(-1)), net.cfg.negative_slope)
     n = dense.part_mask.shape[1]
-    own = (
-        dense.surface_part.unsqueeze(1) == torch.arange(n).view(1, n, 1)
-    ) & dense.surface_mask.unsqueeze(1)
-    own = own.to(z.dtype)
-    own = own / own.sum(dim=-1, keepdim=True).clamp(min=1)  # (A, N, S): mean over own surfaces
+    own = _ownership(dense, z.dtype)
+    own = own / own.sum(dim=-1, keepdim=True).clamp(min=1)  # mean over own surfaces
     relations = torch.einsum("ans,astc,amt->anmc", own, z, own)
     return relations * (1 - torch.eye(n, dtype=z.dtype)).view(1, n, n, 1)
 
