@@ -6,7 +6,7 @@ from omegaconf import DictConfig
 from grace.tasks.runner import run_task
 
 
-@hydra.main(version_base="1.3", config_path="../conf", config_name="config")
+@hydra.main(version_base="1.3", config_path="conf", config_name="config")
 def main(cfg: DictConfig) -> float | None:
     return run_task(cfg)
 

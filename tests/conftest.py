@@ -32,11 +32,11 @@ from hydra.core.global_hydra import GlobalHydra
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig, OmegaConf, open_dict
 
+from grace import CONF_DIR
 from grace.domain.assembly import Assembly, Part, PartType, canonical_order, planar_pose
 from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
 
-CONF_DIR = Path(__file__).resolve().parents[1] / "conf"
 MODULE_ALIAS = "grace_tests_conftest"
 sys.modules[MODULE_ALIAS] = sys.modules[__name__]
 

@@ -3,7 +3,7 @@
 The paper pools the part-node features of a trained GRACE over the parts of an assembly (empty
 state) and fits off-the-shelf classifiers (linear SVM, RBF SVM, MLP, nearest neighbour) to tell
 feasible from infeasible assemblies. The estimators are scikit-learn's, chosen in
-`conf/classifier/`; this module only builds the features and scores them per test size.
+`grace/conf/classifier/`; this module only builds the features and scores them per test size.
 """
 
 from __future__ import annotations

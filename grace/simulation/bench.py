@@ -1,13 +1,12 @@
 """Figures of the robot cell (issue 2 targets): query speed and reach coverage; not tests.
 
 Run `python -m grace.simulation.bench [size] [assemblies]` from the repository root: it composes
-conf/config.yaml's simulator group and prints the figures as JSON.
+grace/conf/config.yaml's simulator group and prints the figures as JSON.
 """
 
 from __future__ import annotations
 
 import json
-import pathlib
 import statistics
 import sys
 import time
@@ -16,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from grace import CONF_DIR
 from grace.domain.assembly import Assembly, Part, PartType, planar_pose
 from grace.domain.motion import Motion
 from grace.simulation.robot_cell import RobotCell
@@ -88,8 +88,7 @@ def main() -> None:
 
     size = int(sys.argv[1]) if len(sys.argv) > 1 else 7
     count = int(sys.argv[2]) if len(sys.argv) > 2 else 20
-    conf = pathlib.Path(__file__).resolve().parents[2] / "conf"
-    with initialize_config_dir(config_dir=str(conf), version_base=None):
+    with initialize_config_dir(config_dir=str(CONF_DIR), version_base=None):
         cfg = compose(config_name="simulator/dual_arm")
     simulator = OmegaConf.to_container(cfg.simulator, resolve=True)
     print(json.dumps(cell_benchmark(simulator, size, count), indent=2))

@@ -1,4 +1,4 @@
-"""The robot cell's configuration (conf/simulator/cell/*.yaml), checked once and typed.
+"""The robot cell's configuration (grace/conf/simulator/cell/*.yaml), checked once and typed.
 
 Every number of the cell lives in the yaml (issue 2): lengths in millimetres, angles in degrees,
 as the domain uses; the MuJoCo model converts to metres and radians.
@@ -10,7 +10,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
 from typing import Any
 
-CONFIG_FILE = "conf/simulator/cell/*.yaml"
+CONFIG_FILE = "grace/conf/simulator/cell/*.yaml"
 
 
 @dataclass(frozen=True)

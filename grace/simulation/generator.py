@@ -4,7 +4,7 @@ A structure grows from one profile by joints that real frames use: T-joints (a p
 against another's long side anywhere along it), L-corners (a profile capping another's end),
 end-to-end extensions, parallel rails (several T-stems off one bar at sampled gaps, some narrower
 than a gripper finger) and angle brackets in the inner corners of T and L joints. Every number
-comes from the `generator:` block of `conf/simulator/dual_arm.yaml`. Parts are axis-aligned
+comes from the `generator:` block of `grace/conf/simulator/dual_arm.yaml`. Parts are axis-aligned
 (`planar_pose`), never overlap, each touches the structure; the result is centred on the world
 origin and named part_1..part_N in `canonical_order` (SPEC §2).
 """
@@ -27,7 +27,7 @@ from grace.domain.assembly import (
 )
 from grace.simulation.joints import end_joints, parts_contact, parts_overlap
 
-CONFIG_FILE = "conf/simulator/dual_arm.yaml"
+CONFIG_FILE = "grace/conf/simulator/dual_arm.yaml"
 HALF = PROFILE_SECTION_MM / 2
 FIELDS = {
     "profile_300_share",

@@ -3,7 +3,7 @@
 Ground truth as SPEC §1 asks of the original simulator: every feasible order of an assembly under
 the constraints of a dual-arm cell, stored as the reachable-state DAG (`GroundTruth`).
 
-Built by `hydra.utils.instantiate(cfg.simulator)` from `conf/simulator/dual_arm.yaml`.
+Built by `hydra.utils.instantiate(cfg.simulator)` from `grace/conf/simulator/dual_arm.yaml`.
 """
 
 from __future__ import annotations

@@ -1,12 +1,10 @@
-from pathlib import Path
-
 import numpy as np
 import pytest
 from omegaconf import OmegaConf
 
+from grace import CONF_DIR
 from grace.evaluation.protocols import make_folds, protocol_sizes
 
-CONF = Path(__file__).resolve().parents[2] / "conf"
 SIZES = [3] * 40 + [4] * 30 + [5] * 50 + [6] * 20 + [7] * 9
 
 
@@ -37,7 +35,7 @@ def _check(folds, train_sizes, test_sizes):
 )
 def test_protocol_configs_and_folds(protocol, top, expected):
     conf = OmegaConf.create({"train_size": 5, "test_size": 5, **top})
-    conf.protocol = OmegaConf.load(CONF / "protocol" / f"{protocol}.yaml")
+    conf.protocol = OmegaConf.load(CONF_DIR / "protocol" / f"{protocol}.yaml")
     p = conf.protocol
     train_sizes, test_sizes = protocol_sizes(
         p.name, SIZES, p.train_sizes, p.test_sizes, p.train_exclude, p.test_exclude

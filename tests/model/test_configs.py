@@ -1,11 +1,10 @@
-from pathlib import Path
-
 import pytest
 
+from grace import CONF_DIR
 from grace.model.grace_pyg import count_parameters
 from grace.model.training import make_module
 
-MODELS = sorted(p.stem for p in (Path(__file__).parents[2] / "conf" / "model").glob("*.yaml"))
+MODELS = sorted(p.stem for p in (CONF_DIR / "model").glob("*.yaml"))
 
 
 def test_every_ablation_row_has_a_config():

@@ -1,13 +1,12 @@
-from pathlib import Path
-
 import numpy as np
 import pytest
 from omegaconf import OmegaConf
 
+from grace import CONF_DIR
 from grace.model.module import GraceModule
 from grace.model.scoring import make_scorer, part_embeddings
 
-CONF = OmegaConf.load(Path(__file__).parents[2] / "conf" / "model" / "grace.yaml")
+CONF = OmegaConf.load(CONF_DIR / "model" / "grace.yaml")
 
 
 def module(state_blocks: int = 0, pair_readout: int = 0, **graph) -> GraceModule:

@@ -11,19 +11,19 @@ reach as a distance to either arm base. It is a stand-in for fast logic tests, n
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
 from omegaconf import OmegaConf
 
+from grace import CONF_DIR
 from grace.domain.assembly import PROFILE_SECTION_MM, Assembly, Part, PartType, planar_pose
 from grace.domain.motion import Motion
 from grace.simulation.joints import Box, boxes_overlap
 from grace.simulation.simulator import Simulator
 
-CONFIG = Path(__file__).resolve().parents[2] / "conf" / "simulator" / "dual_arm.yaml"
+CONFIG = CONF_DIR / "simulator" / "dual_arm.yaml"
 HALF = PROFILE_SECTION_MM / 2
 
 

@@ -3,17 +3,17 @@
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
 
 import mujoco
 import numpy as np
 import pytest
 import yaml
 
+from grace import CONF_DIR
 from grace.simulation.kinematics import N_BRANCHES, top_down_rotation
 from grace.simulation.robot_cell import RobotCell
 
-CELL = Path(__file__).resolve().parents[2] / "conf" / "simulator" / "cell" / "iiwa14_dual.yaml"
+CELL = CONF_DIR / "simulator" / "cell" / "iiwa14_dual.yaml"
 
 
 @pytest.fixture(scope="module")

@@ -3,17 +3,17 @@
 from __future__ import annotations
 
 from itertools import combinations
-from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
 
+from grace import CONF_DIR
 from grace.domain.assembly import Assembly, Part, PartType, mask_to_parts, planar_pose
 from grace.domain.motion import Motion
 from grace.simulation.robot_cell import RobotCell
 
-CELL = Path(__file__).resolve().parents[2] / "conf" / "simulator" / "cell" / "iiwa14_dual.yaml"
+CELL = CONF_DIR / "simulator" / "cell" / "iiwa14_dual.yaml"
 DROP = Motion("top_down", np.array([[0.0, 0.0, 60.0], [0.0, 0.0, 0.0]]))
 
 

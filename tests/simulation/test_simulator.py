@@ -1,6 +1,5 @@
 import itertools
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -8,9 +7,9 @@ from hydra import compose, initialize_config_dir
 from hydra.core.global_hydra import GlobalHydra
 from hydra.utils import instantiate
 
+from grace import CONF_DIR
 from grace.simulation.simulator import Simulator
 
-CONF = Path(__file__).resolve().parents[2] / "conf"
 INFO_KEYS = {"cause", "robot_pruned", "nonlocal_block", "orders", "fixation_orders", "seconds"}
 
 
@@ -51,7 +50,7 @@ def test_fake_cell_replay_agrees_with_cache_on_generated_assemblies(fake_sim):
 def real_sim() -> Simulator:
     pytest.importorskip("grace.simulation.robot_cell")
     GlobalHydra.instance().clear()
-    with initialize_config_dir(config_dir=str(CONF / "simulator"), version_base="1.3"):
+    with initialize_config_dir(config_dir=str(CONF_DIR / "simulator"), version_base="1.3"):
         cfg = compose(config_name="dual_arm")
     GlobalHydra.instance().clear()
     return instantiate(cfg)

@@ -8,10 +8,10 @@ import experiment_fakes
 import pytest
 from omegaconf import OmegaConf
 
+from grace import CONF_DIR
 from grace.tasks.experiment import run
 
 ROOT = Path(__file__).resolve().parents[2]
-CONF = ROOT / "conf"
 
 
 def _cfg(tmp_path, protocol: str, **top):
@@ -22,8 +22,8 @@ def _cfg(tmp_path, protocol: str, **top):
             "train_size": 4,
             "test_size": 4,
             "paths": {"output_dir": str(tmp_path), "data_dir": str(tmp_path / "data")},
-            "task": OmegaConf.load(CONF / "task" / "experiment.yaml"),
-            "protocol": OmegaConf.load(CONF / "protocol" / f"{protocol}.yaml"),
+            "task": OmegaConf.load(CONF_DIR / "task" / "experiment.yaml"),
+            "protocol": OmegaConf.load(CONF_DIR / "protocol" / f"{protocol}.yaml"),
             **top,
         }
     )
