@@ -29,6 +29,7 @@ from grace.data.atomic import write_text_atomic
 from grace.domain.assembly import Assembly, Part, PartType
 from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
+from grace.errors import UserError
 
 SPEC_FILE = "assembly.spec"
 DISTANCES_FILE = "distances.csv"
@@ -37,8 +38,8 @@ DEAD_ENDS_FILE = "inter_solutions.csv"
 RAW_FILES = (SPEC_FILE, DISTANCES_FILE, SOLUTIONS_FILE, DEAD_ENDS_FILE)
 
 
-class RawFormatError(ValueError):
-    """A raw assembly folder that does not follow SPEC §3."""
+class RawFormatError(UserError):
+    """A raw assembly folder that does not follow the raw format (docs/raw-format.md)."""
 
 
 def _error(path: Path, line: int | None, problem: str, fix: str) -> RawFormatError:
