@@ -18,7 +18,7 @@ from pathlib import Path
 from omegaconf import DictConfig
 
 from grace.data.atomic import write_text_atomic
-from grace.data.raw_format import RAW_FILES, find_raw_folders, import_raw
+from grace.data.raw_format import RAW_FILES, find_raw_folders, import_raw_folders
 from grace.data.shards import SHARD_SUFFIX, read_shard, write_shard
 from grace.data.store import load_generated, requested_sizes
 from grace.domain.sample import LabelledAssembly
@@ -53,7 +53,7 @@ def import_raw_tree(root: str | Path, cache: str | Path) -> list[LabelledAssembl
             for size in sorted(int(k) for k in sizes)
             for s in read_shard(target / f"A{size}{SHARD_SUFFIX}")
         ]
-    samples = [import_raw(folder) for folder in folders]  # raises before anything is written
+    samples = import_raw_folders(folders, root)  # raises before anything is written
     by_size: dict[int, list[LabelledAssembly]] = {}
     for sample in samples:
         by_size.setdefault(sample.size, []).append(sample)

@@ -3,6 +3,7 @@ import pytest
 from hydra.utils import instantiate
 from omegaconf import open_dict
 
+from grace.data import loading
 from grace.data.loading import load_dataset
 from grace.data.raw_format import RawFormatError, export_raw
 from grace.data.store import load_generated
@@ -24,7 +25,7 @@ def raw_tree(tmp_path, fake_simulator):
     return tmp_path / "raw", sorted(samples, key=lambda s: (s.size, s.assembly.name))
 
 
-def test_raw_data_set_is_imported_and_cached(cfg_factory, raw_tree, tmp_path):
+def test_raw_data_set_is_imported_and_cached(cfg_factory, raw_tree, tmp_path, monkeypatch):
     root, expected = raw_tree
     cfg = cfg_factory("dataset=raw", f"dataset.path={root}", "dataset.sizes=null", *DROP)
     loaded = load_dataset(cfg)
@@ -32,7 +33,9 @@ def test_raw_data_set_is_imported_and_cached(cfg_factory, raw_tree, tmp_path):
     assert [s.assembly.name for s in loaded] == ["3_0", "3_1", "3_2", "5_0", "5_1", "5_2"]
     (cache,) = (tmp_path / "data").iterdir()
     assert cache.name.startswith("raw-") and (cache / "manifest.json").exists()
-    assert load_dataset(cfg) == expected  # from the cache
+    with monkeypatch.context() as patch:
+        patch.setattr(loading, "import_raw_folders", None)  # a second import would fail
+        assert load_dataset(cfg) == expected  # from the cache
     (root / "A3" / "3_1" / "solutions.csv").write_text("")
     assert len(list((tmp_path / "data").iterdir())) == 1
     reloaded = load_dataset(cfg)  # an edited folder is imported again
@@ -53,9 +56,17 @@ def test_raw_sizes_select_the_first_of_each_size(cfg_factory, raw_tree):
 def test_malformed_raw_tree_writes_nothing(cfg_factory, raw_tree, tmp_path):
     root, _ = raw_tree
     (root / "A5" / "5_2" / "distances.csv").write_text("part_0_surface_1,part_9_surface_1,4\n")
+    (root / "A3" / "3_0" / "assembly.spec").write_text("")
     cfg = cfg_factory("dataset=raw", f"dataset.path={root}", *DROP)
-    with pytest.raises(RawFormatError, match=r"5_2/distances.csv:1: .*part_9_surface_1"):
+    with pytest.raises(RawFormatError) as error:
         load_dataset(cfg)
+    assert str(error.value).splitlines() == [
+        f"2 of 6 raw folders under {root} are malformed: {root}/A3/3_0/assembly.spec: file is "
+        "empty; fix: write 'begin Pieces', one line per part, 'end Pieces'",
+        f"{root}/A5/5_2/distances.csv:1: surface 'part_9_surface_1' is not a surface of a part in "
+        "assembly.spec; fix: name surfaces '<part>_surface_<k>' after a listed part, k within its "
+        "surfaces",
+    ]
     assert not (tmp_path / "data").exists() or not any((tmp_path / "data").iterdir())
 
 

@@ -36,8 +36,11 @@ def test_size_stats_known_values():
     assert s["infeasible_causes"] == {"reach": 0.25, "collision": 0.75, "other": 0.0}
     assert s["robot_pruned_fraction"] == pytest.approx(2 / 3)
     assert s["nonlocal_block_fraction"] == pytest.approx(1 / 3)
-    assert s["states"] == sum(len(x.truth.states) for x in samples)
-    assert s["checks"] == sum(x.truth.checks for x in samples) > 0
+    # reachable states: free all 8; chain ∅, {0}, {0,1}, {0,1,2}; never-last ∅, {0}, {1}, {0,1}.
+    # checks = unplaced parts summed over them: free 3 + 3·2 + 3·1 = 12; chain 3 + 2 + 1 = 6;
+    # never-last 3 + 2 + 2 + 1 = 8
+    assert s["states"] == 8 + 2 * 4 + 4 * 4
+    assert s["checks"] == 12 + 2 * 6 + 4 * 8
     # brute force, step by step until the first failure: free 3·3! = 18; chain 6 + 2 + 1 = 9;
     # part 2 never placeable: 6 + 2 + 2 + 2·1 = 12
     assert s["naive_checks"] == 18 + 2 * 9 + 4 * 12
