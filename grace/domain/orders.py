@@ -58,12 +58,16 @@ class GroundTruth:
 
     @classmethod
     def explore_many(
-        cls, n_parts: int, can_place: Callable[[np.ndarray, int], np.ndarray]
+        cls,
+        n_parts: int,
+        can_place: Callable[[np.ndarray, int], np.ndarray],
+        naive_checks: bool = True,
     ) -> GroundTruth:
         """:meth:`explore` with a check over many states at once: `can_place(states, part)`
         returns a bool array for an int64 array of states that all lack `part`. The simulator's
         rules are bitmask tests, so one numpy call per (layer, part) replaces a Python call per
-        (state, part), which large assemblies (2^16 states) need."""
+        (state, part), which large assemblies (2^16 states) need. `naive_checks=False` skips
+        counting the brute force's checks (ablations compare orders only)."""
         frontier = np.zeros(1, dtype=np.int64)
         states, placeable = [], []
         checks = 0
@@ -81,7 +85,9 @@ class GroundTruth:
             states.append(frontier)
             placeable.append(mask)
             frontier = np.unique(np.concatenate(children)) if children else frontier[:0]
-        gt = cls._from_arrays(n_parts, np.concatenate(states), np.concatenate(placeable))
+        gt = cls._from_arrays(
+            n_parts, np.concatenate(states), np.concatenate(placeable), naive_checks
+        )
         gt.checks = checks
         return gt
 
@@ -105,7 +111,9 @@ class GroundTruth:
         return cls._from_arrays(n_parts, keys, np.array(list(placeable.values()), dtype=np.int64))
 
     @classmethod
-    def _from_arrays(cls, n_parts: int, states: np.ndarray, placeable: np.ndarray) -> GroundTruth:
+    def _from_arrays(
+        cls, n_parts: int, states: np.ndarray, placeable: np.ndarray, naive_checks: bool = True
+    ) -> GroundTruth:
         order = np.argsort(states, kind="stable")
         states, placeable = states[order].astype(np.int64), placeable[order].astype(np.int64)
         full = full_mask(n_parts)
@@ -122,7 +130,8 @@ class GroundTruth:
                 completable[idx[has][ok]] |= np.int64(1) << part
             good[idx] = completable[idx] != 0
         gt = cls(n_parts=n_parts, states=states, placeable=placeable, completable=completable)
-        gt.naive_checks = gt._naive_checks()
+        if naive_checks:
+            gt.naive_checks = gt._naive_checks()
         return gt
 
     @property
@@ -180,9 +189,14 @@ class GroundTruth:
         return all(np.array_equal(a, b) for a, b in zip(mine, theirs, strict=True))
 
     def _order_dag(self) -> tuple[np.ndarray, np.ndarray]:
+        cached = self.__dict__.get("_dag")
+        if cached is not None and cached[0] is self.completable:
+            return cached[1]
         on = self._counts(self.completable) > 0
         on &= (self.completable != 0) | (self.states == full_mask(self.n_parts))
-        return self.states[on], self.completable[on]
+        dag = (self.states[on], self.completable[on])
+        self.__dict__["_dag"] = (self.completable, dag)
+        return dag
 
     def _naive_checks(self) -> int:
         counts = self._counts(self.placeable)

@@ -27,6 +27,18 @@ CONFIG_DIR = "grace/conf/simulator"
 RULES = ("fixation", "joints", "fingers", "palm", "held_part", "arm_links", "clamps", "reach")
 """The rules of the world (docs/world.md, "Rules"); each can be switched off alone."""
 
+MECHANISMS = (
+    "frame_closing",
+    "slide_corridor",
+    "narrow_rails",
+    "crowded_grasp",
+    "bracket_corner",
+    "clamp",
+    "arm",
+    "reach",
+)
+"""Physically distinct ways an assembly becomes infeasible (docs/world.md, "Mechanisms")."""
+
 
 @dataclass
 class TableConfig:

@@ -17,7 +17,7 @@ import numpy as np
 
 from grace.domain.assembly import PROFILE_SECTION_MM, Assembly, Part
 from grace.simulation.cell_config import ClampConfig
-from grace.simulation.joints import Box, axis_of, boxes_overlap
+from grace.simulation.joints import Box, axis_of
 
 HALF = PROFILE_SECTION_MM / 2
 
@@ -29,7 +29,11 @@ def clamp_boxes(assembly: Assembly, cfg: ClampConfig, tolerance: float) -> list[
     taken: list[Box] = []
     out = []
     for part in assembly.parts:
-        spot = _spot(part, cfg, footprints + taken, centre, tolerance) if part.type.is_profile else None
+        spot = (
+            _spot(part, cfg, footprints + taken, centre, tolerance)
+            if part.type.is_profile
+            else None
+        )
         if spot is None:
             out.append(np.zeros((0, 2, 3)))
             continue
@@ -39,7 +43,10 @@ def clamp_boxes(assembly: Assembly, cfg: ClampConfig, tolerance: float) -> list[
             np.array(
                 [
                     [[body[0], body[1], 0.0], [body[2], body[3], cfg.height]],
-                    [[arm[0], arm[1], PROFILE_SECTION_MM], [arm[2], arm[3], PROFILE_SECTION_MM + cfg.arm_thickness]],
+                    [
+                        [arm[0], arm[1], PROFILE_SECTION_MM],
+                        [arm[2], arm[3], PROFILE_SECTION_MM + cfg.arm_thickness],
+                    ],
                 ]
             )
         )
@@ -56,9 +63,10 @@ def _spot(
     positions = np.arange(-steps, steps + 1) * cfg.grid
     outward = float((np.asarray(part.xy) - centre) @ n)
     best: tuple[tuple[float, float, float], tuple[Box, Box]] | None = None
+    blocks = np.array(obstacles).reshape(-1, 4)
     for side in (1.0, -1.0):
-        free = [not _blocked(part, u, n * side, s, cfg, obstacles, tolerance) for s in positions]
-        for start, stop in _runs(free):
+        free = _free(part, u, n * side, positions, cfg, blocks, tolerance)
+        for start, stop in _runs(free.tolist()):
             middle = positions[(start + stop - 1) // 2]
             run = stop - start
             key = (run, side * outward, -abs(float(middle)))
@@ -78,7 +86,9 @@ def _runs(free: list[bool]) -> list[tuple[int, int]]:
     return runs
 
 
-def _boxes(part: Part, u: np.ndarray, n: np.ndarray, along: float, cfg: ClampConfig) -> tuple[Box, Box]:
+def _boxes(
+    part: Part, u: np.ndarray, n: np.ndarray, along: float, cfg: ClampConfig
+) -> tuple[Box, Box]:
     c = np.asarray(part.xy) + u * along
     body = _box(c + n * (HALF + cfg.depth / 2), u * cfg.width / 2, n * cfg.depth / 2)
     arm = _box(c + n * (cfg.depth / 2), u * cfg.arm_width / 2, n * (HALF + cfg.depth / 2))
@@ -91,14 +101,24 @@ def _box(centre: np.ndarray, a: np.ndarray, b: np.ndarray) -> Box:
     return (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
 
 
-def _blocked(
+def _free(
     part: Part,
     u: np.ndarray,
     n: np.ndarray,
-    along: float,
+    positions: np.ndarray,
     cfg: ClampConfig,
-    obstacles: list[Box],
+    blocks: np.ndarray,
     tolerance: float,
-) -> bool:
-    body, _ = _boxes(part, u, n, along, cfg)
-    return any(boxes_overlap(body, o, tolerance) for o in obstacles)
+) -> np.ndarray:
+    """Per candidate position, whether the clamp body there overlaps no obstacle footprint."""
+    centre = np.asarray(part.xy) + n * (HALF + cfg.depth / 2)
+    half = np.abs(u) * cfg.width / 2 + np.abs(n) * cfg.depth / 2
+    centres = centre[None] + positions[:, None] * u[None]
+    lo, hi = centres - half, centres + half
+    depth_x = np.minimum(hi[:, None, 0], blocks[None, :, 2]) - np.maximum(
+        lo[:, None, 0], blocks[None, :, 0]
+    )
+    depth_y = np.minimum(hi[:, None, 1], blocks[None, :, 3]) - np.maximum(
+        lo[:, None, 1], blocks[None, :, 1]
+    )
+    return ~((depth_x > tolerance) & (depth_y > tolerance)).any(axis=1)

@@ -132,7 +132,9 @@ def explain(
                 r
                 for r in active
                 if any(
-                    not candidate_blocks(o, motions[o.motion], placed, [x for x in active if x != r])
+                    not candidate_blocks(
+                        o, motions[o.motion], placed, [x for x in active if x != r]
+                    )
                     for o in options
                 )
             ),

@@ -36,27 +36,12 @@ from grace.domain.assembly import Assembly
 from grace.domain.motion import Motion
 from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
-from grace.simulation.cell_config import RULES
+from grace.simulation.cell_config import MECHANISMS, RULES
 from grace.simulation.robot_cell import BODIES, KINDS, RULE_OF_BODY, PlacementOption, category
-
-MECHANISMS = (
-    "frame_closing",
-    "slide_corridor",
-    "narrow_rails",
-    "bracket_corner",
-    "clamp",
-    "arm",
-    "reach",
-)
-"""Physically distinct ways an assembly becomes infeasible (docs/world.md, "Mechanisms")."""
 
 
 class Cell(Protocol):
-    """What feasibility needs from the robot cell (grace.simulation.robot_cell.RobotCell)."""
-
-    def options(
-        self, assembly: Assembly, motions: list[list[Motion]]
-    ) -> list[list[PlacementOption]]: ...
+    """What `replay` needs from the robot cell (grace.simulation.robot_cell.RobotCell)."""
 
     def check_placement(
         self,
@@ -107,10 +92,12 @@ class OptionTable:
     arm_clear: np.ndarray
     is_profile: np.ndarray
     touch: np.ndarray
+    parallel: np.ndarray
+    """Per part, bitmask of the other parts lying along the same axis."""
 
     @classmethod
     def build(
-        cls, options: list[list[PlacementOption]], fixation: Fixation
+        cls, assembly: Assembly, options: list[list[PlacementOption]], fixation: Fixation
     ) -> OptionTable:
         flat = [(p, o) for p, opts in enumerate(options) for o in opts]
         return cls(
@@ -120,11 +107,20 @@ class OptionTable:
             arm_clear=np.array([o.arm_clear for _, o in flat], dtype=bool),
             is_profile=fixation.is_profile,
             touch=fixation.touch,
+            parallel=np.array(
+                [
+                    sum(
+                        1 << j
+                        for j, q in enumerate(assembly.parts)
+                        if j != i and q.quarter_turns % 2 == p.quarter_turns % 2
+                    )
+                    for i, p in enumerate(assembly.parts)
+                ],
+                dtype=np.int64,
+            ),
         )
 
-    def blockers(
-        self, rules: Collection[str], relax: str | None = None
-    ) -> list[np.ndarray]:
+    def blockers(self, rules: Collection[str], relax: str | None = None) -> list[np.ndarray]:
         """Per part, the minimal blocker masks of its usable options under `rules` (the active
         ones), with mechanism `relax` lifted."""
         cols = [
@@ -140,27 +136,37 @@ class OptionTable:
         if "arm_links" in rules and relax != "arm":
             usable &= self.arm_clear
         if relax is not None:
-            _relax(masks, relax, self.part, self.is_profile, self.touch)
-        combined = np.bitwise_or.reduce(masks[:, cols], axis=1) if cols else np.zeros(len(masks), np.int64)
+            _relax(masks, relax, self)
+        combined = (
+            np.bitwise_or.reduce(masks[:, cols], axis=1) if cols else np.zeros(len(masks), np.int64)
+        )
         n = len(self.is_profile)
         return [_minimal(combined[usable & (self.part == p)]) for p in range(n)]
 
 
-def _relax(
-    masks: np.ndarray, mechanism: str, part: np.ndarray, is_profile: np.ndarray, touch: np.ndarray
-) -> None:
+def _relax(masks: np.ndarray, mechanism: str, table: OptionTable) -> None:
     """Lift one mechanism's blocking contributions from `masks` in place (docs/world.md)."""
+    part = table.part
     held = category("held_part", "part")
     gripper = [category("finger", "part"), category("palm", "part")]
     if mechanism == "frame_closing":
         masks[:, category("joint", "part")] = 0
-        masks[:, held] &= ~touch[part]
+        masks[:, held] &= ~table.touch[part]
     elif mechanism == "slide_corridor":
-        masks[:, held] &= touch[part]
-    elif mechanism in ("narrow_rails", "bracket_corner"):
-        rows = is_profile[part] == (mechanism == "narrow_rails")
+        masks[:, held] &= table.touch[part]
+    elif mechanism in ("narrow_rails", "crowded_grasp", "bracket_corner"):
+        # Which blockers of a gripper belong to the mechanism: parallel profiles beside a
+        # profile, crossing profiles over it, anything involving a bracket.
+        brackets = np.int64(sum(1 << i for i, p in enumerate(table.is_profile) if not p))
+        same = table.parallel[part]
+        moving_profile = table.is_profile[part]
+        lift = {
+            "narrow_rails": np.where(moving_profile, same & ~brackets, 0),
+            "crowded_grasp": np.where(moving_profile, ~same & ~brackets, 0),
+            "bracket_corner": np.where(moving_profile, brackets, -1),
+        }[mechanism].astype(np.int64)
         for c in gripper:
-            masks[rows, c] = 0
+            masks[:, c] &= ~lift
     elif mechanism == "clamp":
         for body in ("finger", "palm", "held_part"):
             masks[:, category(body, "clamp")] = 0
@@ -200,7 +206,7 @@ def explore(
 ) -> GroundTruth:
     """Ground truth under the active `rules` (and mechanism `relax` lifted)."""
     check = rule_check(fixation, table.blockers(rules, relax), "fixation" in rules)
-    return GroundTruth.explore_many(n, check)
+    return GroundTruth.explore_many(n, check, naive_checks=False)
 
 
 def nonlocal_block(truth: GroundTruth, fixation: Fixation, blockers: list[np.ndarray]) -> bool:
@@ -228,12 +234,14 @@ def label(
     """Ground truth and diagnostics of one assembly (see the module docstring for `info`)."""
     n = assembly.n_parts
     fixation = Fixation.of(assembly, touch)
-    table = OptionTable.build(options, fixation)
+    table = OptionTable.build(assembly, options, fixation)
     active = [r for r in RULES if r in rules]
-    truth = explore(n, fixation, table, active)
-    fixed = GroundTruth.explore_many(n, lambda s, p: fixation.holds(s, p))
+    truth = GroundTruth.explore_many(n, rule_check(fixation, table.blockers(active)))
+    fixed = GroundTruth.explore_many(n, fixation.holds, naive_checks=False)
     decisive = [
-        r for r in active if not explore(n, fixation, table, [x for x in active if x != r]).same_orders(truth)
+        r
+        for r in active
+        if not explore(n, fixation, table, [x for x in active if x != r]).same_orders(truth)
     ]
     info: dict[str, Any] = {
         "cause": None,

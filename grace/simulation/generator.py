@@ -165,7 +165,11 @@ class StructureGenerator:
         end = int(rng.choice([-1, 1]))
         kind = self._kind(rng)
         half_span = kind.length / 2 - HALF
-        along = half_span * int(rng.choice([-1, 1])) if rng.random() < 0.5 else self._grid(rng, half_span)
+        along = (
+            half_span * int(rng.choice([-1, 1]))
+            if rng.random() < 0.5
+            else self._grid(rng, half_span)
+        )
         centre = np.asarray(stem.xy) + u * end * (stem.type.length / 2 + HALF)
         centre = centre + np.array([-u[1], u[0]]) * along
         return Part("new", kind, planar_pose(centre[0], centre[1], 1 - self._turns(stem)))
@@ -193,7 +197,10 @@ class StructureGenerator:
             return None
         a, b, kind, lo, hi = spans[rng.integers(len(spans))]
         grid = self.cfg.position_grid_mm
-        at = lo + float(rng.integers(0, int((hi - lo) // grid) + 1)) * grid
+        if rng.random() < 0.5:  # flush with the bars' ends: a closed corner, as caps make
+            at = float(rng.choice([lo, hi]))
+        else:
+            at = lo + float(rng.integers(0, int((hi - lo) // grid) + 1)) * grid
         u = axis_of(a)
         n = np.array([-u[1], u[0]])
         middle = (np.asarray(a.xy) @ n + np.asarray(b.xy) @ n) / 2
@@ -206,7 +213,7 @@ class StructureGenerator:
         if not joints:
             return None
         joint = joints[rng.integers(len(joints))]
-        stem, host = parts[joint.part], parts[joint.host]
+        host = parts[joint.host]
         u = axis_of(host)
         n = np.array([-u[1], u[0]])
         side = -int(np.sign(np.asarray(joint.direction) @ n))

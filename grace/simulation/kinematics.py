@@ -5,7 +5,8 @@ redundant joint A3 in between. Fixing A3 = 0 leaves a 6-DoF arm that decouples: 
 the wrist centre in place (a planar 2R problem in the vertical plane of A1), A5–A7 then turn the
 flange to the wanted orientation (ZYZ Euler angles). This is orders of magnitude faster than
 iterating damped least squares on Jacobians, which the ground-truth budget (an A7 assembly in
-≤ 50 ms, docs/world.md) needs. Axes are z, y, z, y, z, y, z; in the zero pose the arm stands upright.
+≤ 50 ms, docs/world.md) needs. Axes are z, y, z, y, z, y, z; in the zero pose the arm stands
+upright.
 
 All lengths here are metres; the world frame is the work-area centre on the table, z up.
 """

@@ -176,8 +176,9 @@ class RobotCell:
 
     def grasps(self, assembly: Assembly, part: int) -> list[Grasp]:
         """The grasp candidates of a part, in the order `PlacementOption.grasp` indexes."""
+        others = [p for i, p in enumerate(assembly.parts) if i != part]
         return grasp_candidates(
-            assembly.parts[part], self.config.gripper, self.config.grasp_fractions
+            assembly.parts[part], self.config.gripper, self.config.grasp_fractions, others
         )
 
     # Scenes ---------------------------------------------------------------------------------
@@ -228,28 +229,21 @@ class RobotCell:
 
     # Cached options --------------------------------------------------------------------------
 
-    def options(
-        self, assembly: Assembly, motions: list[list[Motion]]
-    ) -> list[list[PlacementOption]]:
-        """Every option of every part, with all other parts and clamps in the scene."""
-        scene = self.scene(assembly)
-        return [self.part_options(scene, p, motions[p]) for p in range(assembly.n_parts)]
-
     def placement_options(
         self, assembly: Assembly, part: int, motions: list[Motion]
     ) -> list[PlacementOption]:
         """The options of one part (a scene of its own)."""
         return self.part_options(self.scene(assembly), part, motions)
 
-    def part_options(
-        self, scene: Scene, part: int, motions: list[Motion]
-    ) -> list[PlacementOption]:
+    def part_options(self, scene: Scene, part: int, motions: list[Motion]) -> list[PlacementOption]:
         assembly = scene.assembly
         grasps = self.grasps(assembly, part)
         combos = [(g, m) for g in range(len(grasps)) for m in range(len(motions))]
         tool = self._tool_masks(scene, part, grasps, motions, combos)
         own = np.int64(1) << part
-        arm_results = [self._arm_masks(scene, part, grasps, motions, combos, a) for a in range(self.n_arms)]
+        arm_results = [
+            self._arm_masks(scene, part, grasps, motions, combos, a) for a in range(self.n_arms)
+        ]
         out = []
         for c, (g, m) in enumerate(combos):
             base = tool[c].copy()
@@ -259,7 +253,9 @@ class RobotCell:
                 continue
             for a, results in enumerate(arm_results):
                 if not results[c]:
-                    out.append(PlacementOption(a, -1, g, m, False, True, tuple(int(x) for x in base)))
+                    out.append(
+                        PlacementOption(a, -1, g, m, False, True, tuple(int(x) for x in base))
+                    )
                 for branch, clear, arm in results[c]:
                     masks = tuple(int(x) for x in base | arm)
                     out.append(PlacementOption(a, branch, g, m, True, clear, masks))
@@ -311,44 +307,60 @@ class RobotCell:
         ]
         bounds = np.cumsum([0, *(len(s) for s in samples)])
         tcp = np.concatenate(samples) * mjcf.MM
-        yaw = np.concatenate([np.full(len(s), grasps[g].yaw) for s, (g, _) in zip(samples, combos, strict=True)])
+        yaw = np.concatenate(
+            [np.full(len(s), grasps[g].yaw) for s, (g, _) in zip(samples, combos, strict=True)]
+        )
         q, ok = kin.top_down_ik(tcp, yaw)
-        out: list[list[tuple[int, bool, np.ndarray]]] = []
-        other = scene.owner != part
-        for c in range(len(combos)):
-            span = slice(bounds[c], bounds[c + 1])
-            valid = np.flatnonzero(ok[:, span].all(axis=1))[: self.config.max_branches]
-            out.append(
-                [(int(b), *self._arm_check(scene, other, part, arm, q[b, span])) for b in valid]
-            )
-        return out
-
-    def _arm_check(
-        self, scene: Scene, other: np.ndarray, part: int, arm: int, q: np.ndarray
-    ) -> tuple[bool, np.ndarray]:
-        """(clear of table and self, category masks) of one arm along joint samples `q`."""
-        masks = np.zeros(N_CATEGORIES, dtype=np.int64)
-        points = self.arms[arm].link_points(q) / mjcf.MM  # K×5×3 mm
-        lo = np.minimum(points[:, :-1], points[:, 1:]) - self._radii[None, :, None]
-        hi = np.maximum(points[:, :-1], points[:, 1:]) + self._radii[None, :, None]
-        near = (
-            (np.minimum(hi[:, :, None], scene.hi[other][None, None])
-             - np.maximum(lo[:, :, None], scene.lo[other][None, None])) > self._tolerance
-        ).all(axis=-1).any(axis=(1, 2))
-        near |= (lo[:, :, 2] < -self._tolerance).any(axis=1)
-        for a, b in ((0, 2), (0, 3), (1, 3)):
-            near |= ((np.minimum(hi[:, a], hi[:, b]) - np.maximum(lo[:, a], lo[:, b])) > 0).all(axis=-1)
-        clear = True
+        pairs = [
+            (c, int(b))
+            for c in range(len(combos))
+            for b in np.flatnonzero(ok[:, bounds[c] : bounds[c + 1]].all(axis=1))[
+                : self.config.max_branches
+            ]
+        ]
+        out: list[list[tuple[int, bool, np.ndarray]]] = [[] for _ in combos]
+        if not pairs:
+            return out
+        rows = np.concatenate([np.arange(bounds[c], bounds[c + 1]) for c, _ in pairs])
+        branch = np.concatenate([np.full(bounds[c + 1] - bounds[c], b) for c, b in pairs])
+        pair_of = np.repeat(np.arange(len(pairs)), [bounds[c + 1] - bounds[c] for c, _ in pairs])
+        poses = q[branch, rows]
+        near = self._near(scene, part, kin.link_points(poses) / mjcf.MM)
+        clear = np.ones(len(pairs), dtype=bool)
+        masks = np.zeros((len(pairs), N_CATEGORIES), dtype=np.int64)
         adr = self._qpos[arm]
         for k in np.flatnonzero(near):
-            self.data.qpos[adr] = q[k]
+            self.data.qpos[adr] = poses[k]
             for link, owner, kind in self._contacts(arm):
-                if owner < 0:
-                    clear = False
+                if owner == -1:
+                    clear[pair_of[k]] = False
                 elif owner != part:
-                    masks[category(f"arm_{mjcf.LINKS[link]}", KINDS[kind])] |= np.int64(1) << owner
+                    masks[pair_of[k], category(f"arm_{mjcf.LINKS[link]}", KINDS[kind])] |= (
+                        np.int64(1) << owner
+                    )
         self.data.qpos[adr] = 0.0
-        return clear, masks
+        for i, (c, b) in enumerate(pairs):
+            out[c].append((b, bool(clear[i]), masks[i]))
+        return out
+
+    def _near(self, scene: Scene, part: int, points: np.ndarray) -> np.ndarray:
+        """Samples (K) whose link capsules' bounds (points: K×5×3 mm) meet another part's or
+        clamp's box, the table top, or each other (non-adjacent links): MuJoCo decides those."""
+        radii = self._radii[None, :, None]
+        lo = np.minimum(points[:, :-1], points[:, 1:]) - radii
+        hi = np.maximum(points[:, :-1], points[:, 1:]) + radii
+        other = scene.owner != part
+        olo, ohi = scene.lo[other], scene.hi[other]
+        depth = np.minimum(hi[:, :, None], ohi[None, None]) - np.maximum(
+            lo[:, :, None], olo[None, None]
+        )
+        near = (depth > self._tolerance).all(axis=-1).any(axis=(1, 2))
+        near |= (lo[:, :, 2] < -self._tolerance).any(axis=1)
+        for a, b in ((0, 2), (0, 3), (1, 3)):
+            near |= ((np.minimum(hi[:, a], hi[:, b]) - np.maximum(lo[:, a], lo[:, b])) > 0).all(
+                axis=-1
+            )
+        return near
 
     def _contacts(self, arm: int) -> list[tuple[int, int, int]]:
         """(link, owner part, kind) of the arm's penetrating contacts in the current pose; owner
@@ -393,7 +405,9 @@ class RobotCell:
         scene = self.scene(assembly)
         self._load(scene, [i for i in mask_to_parts(placed) if i != part], clamps=on["clamps"])
         held = part_boxes(assembly.parts[part])
-        enabled = np.array([on["fingers"], on["fingers"], on["palm"], on["held_part"], on["held_part"]])
+        enabled = np.array(
+            [on["fingers"], on["fingers"], on["palm"], on["held_part"], on["held_part"]]
+        )
         try:
             for grasp in self.grasps(assembly, part):
                 solid = np.concatenate([grasp.gripper_boxes(self.config.gripper), held])
@@ -450,15 +464,15 @@ class RobotCell:
 
     # Drawing --------------------------------------------------------------------------------
 
-    def pose(
-        self, assembly: Assembly, placed: int, part: int, option: PlacementOption
-    ) -> CellPose:
+    def pose(self, assembly: Assembly, placed: int, part: int, option: PlacementOption) -> CellPose:
         """The cell after `part` is placed with `option` in state `placed` (for drawing)."""
         scene = self.scene(assembly)
         grasp = self.grasps(assembly, part)[option.grasp]
         angles = {a: np.zeros(7) for a in range(self.n_arms)}
         if option.arm >= 0 and option.branch >= 0:
-            q, _ = self.arms[option.arm].top_down_ik(np.asarray(grasp.tcp)[None] * mjcf.MM, grasp.yaw)
+            q, _ = self.arms[option.arm].top_down_ik(
+                np.asarray(grasp.tcp)[None] * mjcf.MM, grasp.yaw
+            )
             angles[option.arm] = q[option.branch, 0].copy()
         self.data.qpos[:] = 0.0
         for a, q in angles.items():

@@ -47,7 +47,8 @@ class Simulator:
         unknown = set(switches) - set(RULES)
         if unknown:
             raise UserError(
-                f"{CONFIG_DIR}: field 'rules' has unknown rules {sorted(unknown)}; use {list(RULES)}"
+                f"{CONFIG_DIR}: field 'rules' has unknown rules {sorted(unknown)}; "
+                f"use {list(RULES)}"
             )
         self.rules = tuple(r for r in RULES if switches.get(r, True))
         self.tolerance = float(self.cell.config.touch_tolerance)
@@ -66,8 +67,17 @@ class Simulator:
     def label(self, assembly: Assembly) -> LabelledAssembly:
         """All feasible orders of `assembly` and the diagnostics of feasibility.label."""
         start = time.perf_counter()
-        options = self.cell.options(assembly, self.motions(assembly))
-        sample = feasibility.label(assembly, options, touching(assembly, self.tolerance), self.rules)
+        scene = self.cell.scene(assembly)
+        motions = self.motions(assembly)
+        options = [self.cell.part_options(scene, p, motions[p]) for p in range(assembly.n_parts)]
+        sample = feasibility.label(
+            assembly, options, touching(assembly, self.tolerance), self.rules
+        )
+        # Clamp bodies' footprints (x0, y0, x1, y1 mm) per part, for pictures; [] = no clamp.
+        sample.info["clamps"] = [
+            [round(float(v), 1) for v in (*c[0, 0, :2], *c[0, 1, :2])] if len(c) else []
+            for c in scene.clamps
+        ]
         sample.info["seconds"] = time.perf_counter() - start
         return sample
 
@@ -105,6 +115,7 @@ class Simulator:
         option = next(
             o
             for o in options
-            if (o.arm, o.branch, o.grasp, o.motion) == (used.arm, used.branch, used.grasp, used.motion)
+            if (o.arm, o.branch, o.grasp, o.motion)
+            == (used.arm, used.branch, used.grasp, used.motion)
         )
         return self.cell.pose(assembly, placed, part, option)
