@@ -236,7 +236,8 @@ def label(
     fixation = Fixation.of(assembly, touch)
     table = OptionTable.build(assembly, options, fixation)
     active = [r for r in RULES if r in rules]
-    truth = GroundTruth.explore_many(n, rule_check(fixation, table.blockers(active)))
+    check = rule_check(fixation, table.blockers(active), "fixation" in active)
+    truth = GroundTruth.explore_many(n, check)
     fixed = GroundTruth.explore_many(n, fixation.holds, naive_checks=False)
     decisive = [
         r
