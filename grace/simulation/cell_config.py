@@ -130,6 +130,8 @@ class GeneratorConfig:
     """Share of 300 mm profiles (the rest are 200 mm)."""
     motif_weights: dict[str, float] = MISSING
     """Relative weights of the ways a frame grows (docs/world.md, "Frames")."""
+    flush_share: float = MISSING
+    """Probability that a cap or a rung is flush with the ends it meets (a closed corner)."""
     bracket_share: float = MISSING
     """Probability that a growth step puts an angle bracket into a free inner corner."""
     gap_mm: list[int] = MISSING

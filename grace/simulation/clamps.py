@@ -3,12 +3,12 @@
 Every profile is clamped to the fixture plate as soon as it is placed and stays clamped until the
 frame is done, so its clamp is an obstacle from then on, like the part itself (it shares the
 part's bit in every blocker mask). A clamp is a body standing beside the profile's long side and
-an arm over the profile's top. The fixture designer puts it where there is room: on the side and
-at the position with the longest free stretch around it (no other part's footprint and no other
-clamp within its footprint), ties to the side facing away from the frame's centre, then the
-lower position. A profile with no free spot on either side gets no clamp. The placement is a
-function of the assembly's geometry alone, so it is the same for every order and every
-simulator, and an imported assembly gets the same clamps.
+an arm over the profile's top. The fixture designer puts it as near the profile's middle as
+there is room (no other part's footprint and no other clamp within its footprint), ties to the
+side facing away from the frame's centre, then the lower position. A profile with no free spot
+on either side gets no clamp. The placement is a function of the assembly's geometry alone, so
+it is the same for every order and every simulator, and an imported assembly gets the same
+clamps.
 """
 
 from __future__ import annotations
@@ -66,24 +66,11 @@ def _spot(
     blocks = np.array(obstacles).reshape(-1, 4)
     for side in (1.0, -1.0):
         free = _free(part, u, n * side, positions, cfg, blocks, tolerance)
-        for start, stop in _runs(free.tolist()):
-            middle = positions[(start + stop - 1) // 2]
-            run = stop - start
-            key = (run, side * outward, -abs(float(middle)))
+        for at in positions[free]:
+            key = (-abs(float(at)), side * outward, -float(at))
             if best is None or key > best[0]:
-                best = (key, _boxes(part, u, n * side, float(middle), cfg))
+                best = (key, _boxes(part, u, n * side, float(at), cfg))
     return None if best is None else best[1]
-
-
-def _runs(free: list[bool]) -> list[tuple[int, int]]:
-    runs, start = [], None
-    for k, ok in enumerate([*free, False]):
-        if ok and start is None:
-            start = k
-        elif not ok and start is not None:
-            runs.append((start, k))
-            start = None
-    return runs
 
 
 def _boxes(

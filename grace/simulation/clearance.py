@@ -64,28 +64,21 @@ class Grasp:
         return np.array(boxes)
 
 
-def grasp_candidates(
-    part: Part,
-    gripper: GripperConfig,
-    fractions: Sequence[float],
-    neighbours: Sequence[Part] = (),
-) -> list[Grasp]:
-    """Top-down grasps of `part` in the world.
+def grasp_candidates(part: Part, gripper: GripperConfig, fractions: Sequence[float]) -> list[Grasp]:
+    """Top-down grasps of `part` in the world: a fixed set per part type, as the paper's
+    simulator has (grasp planning is named there as a restriction for future work, Sec. IV-A).
 
-    A profile is held with the fingers on its two long faces at each fraction of its length and,
-    as a grasp planner would add, at the middle of every stretch where no part of `neighbours`
-    stands within a finger's reach of either face (where that is a new spot). A
+    A profile is held with the fingers on its two long faces at each fraction of its length. A
     bracket is held across the wall of one leg at the middle of the leg's free stretch, the
     fingertips `bracket_grip_depth` below its top (one grasp per leg): the outer finger then
     stands where the profile that leg is fastened to goes, so that profile must come later.
     """
     turn = part.quarter_turns * math.pi / 2
     if part.type.is_profile:
-        spots = [(f - 0.5) * part.type.length for f in fractions]
-        for free in _free_spots(part, gripper, neighbours):
-            if all(abs(free - s) >= gripper.finger_width for s in spots):
-                spots.append(free)
-        local = [((0.0, y, gripper.grasp_height), 0.0, PROFILE_SECTION_MM) for y in spots]
+        local = [
+            ((0.0, (f - 0.5) * part.type.length, gripper.grasp_height), 0.0, PROFILE_SECTION_MM)
+            for f in fractions
+        ]
     else:
         mid = (BRACKET_THICKNESS_MM + BRACKET_LEG_MM) / 2
         tip = PART_HEIGHT_MM - gripper.bracket_grip_depth
@@ -99,32 +92,6 @@ def grasp_candidates(
         world = part.pose[:2, :2] @ np.array([x, y]) + part.pose[:2, 3]
         grasps.append(Grasp((float(world[0]), float(world[1]), z), turn + yaw, opening))
     return grasps
-
-
-def _free_spots(part: Part, gripper: GripperConfig, neighbours: Sequence[Part]) -> list[float]:
-    """Middles (local y, mm) of the stretches where both fingers fit beside `part` with
-    `neighbours` in place, on a 5 mm raster."""
-    half = part.type.length / 2 - gripper.finger_width / 2
-    ys = np.arange(-half, half + 1e-6, 5.0)
-    reach = PROFILE_SECTION_MM / 2 + gripper.finger_thickness
-    inverse = np.linalg.inv(part.pose[:2, :2])
-    free = np.ones(len(ys), dtype=bool)
-    w = gripper.finger_width / 2
-    for other in neighbours:
-        for x0, y0, x1, y1 in other.footprint_boxes():
-            corners = (np.array([[x0, y0], [x1, y1]]) - part.pose[:2, 3]) @ inverse.T
-            lo, hi = corners.min(axis=0), corners.max(axis=0)
-            if lo[0] >= reach - 0.5 or hi[0] <= -reach + 0.5:
-                continue
-            free &= ~((ys + w > lo[1] + 0.5) & (ys - w < hi[1] - 0.5))
-    spots, start = [], None
-    for k, ok in enumerate([*free.tolist(), False]):
-        if ok and start is None:
-            start = k
-        elif not ok and start is not None:
-            spots.append(float(ys[(start + k - 1) // 2]))
-            start = None
-    return spots
 
 
 def swept_boxes(boxes: np.ndarray, motion: Motion) -> np.ndarray:

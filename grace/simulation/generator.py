@@ -6,7 +6,8 @@ A frame grows from one profile by the motifs real fixture frames are made of:
 - `cap`: a profile across a free end of another (an L corner when flush with its side, a T
   otherwise); capping the far end of a stem starts a second bar parallel to the first;
 - `rung`: a profile spanning the gap between two parallel profiles that face each other at a
-  profile's length, both ends in T-slots: it closes a rectangle or adds a ladder rung;
+  profile's length, both ends in T-slots: flush with their ends it closes a rectangle, set in it
+  adds a ladder rung (caps and rungs are flush with probability `flush_share`);
 - `comb`: a stem beside an existing stem on the same host, at a gap drawn from `gap_mm`;
 - angle brackets in free inner corners of T and L joints (`bracket_share`).
 
@@ -165,11 +166,8 @@ class StructureGenerator:
         end = int(rng.choice([-1, 1]))
         kind = self._kind(rng)
         half_span = kind.length / 2 - HALF
-        along = (
-            half_span * int(rng.choice([-1, 1]))
-            if rng.random() < 0.5
-            else self._grid(rng, half_span)
-        )
+        flush = rng.random() < self.cfg.flush_share
+        along = half_span * int(rng.choice([-1, 1])) if flush else self._grid(rng, half_span)
         centre = np.asarray(stem.xy) + u * end * (stem.type.length / 2 + HALF)
         centre = centre + np.array([-u[1], u[0]]) * along
         return Part("new", kind, planar_pose(centre[0], centre[1], 1 - self._turns(stem)))
@@ -197,7 +195,7 @@ class StructureGenerator:
             return None
         a, b, kind, lo, hi = spans[rng.integers(len(spans))]
         grid = self.cfg.position_grid_mm
-        if rng.random() < 0.5:  # flush with the bars' ends: a closed corner, as caps make
+        if rng.random() < self.cfg.flush_share:  # flush with the bars' ends: closed corners
             at = float(rng.choice([lo, hi]))
         else:
             at = lo + float(rng.integers(0, int((hi - lo) // grid) + 1)) * grid

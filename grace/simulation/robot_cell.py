@@ -176,9 +176,8 @@ class RobotCell:
 
     def grasps(self, assembly: Assembly, part: int) -> list[Grasp]:
         """The grasp candidates of a part, in the order `PlacementOption.grasp` indexes."""
-        others = [p for i, p in enumerate(assembly.parts) if i != part]
         return grasp_candidates(
-            assembly.parts[part], self.config.gripper, self.config.grasp_fractions, others
+            assembly.parts[part], self.config.gripper, self.config.grasp_fractions
         )
 
     # Scenes ---------------------------------------------------------------------------------

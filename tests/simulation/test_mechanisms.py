@@ -27,9 +27,10 @@ def closed_rectangle(w):
 
 
 def ladder(w):
-    """The same with the rungs set in: the last bar slides onto both rungs, held outside them."""
+    """Rungs set in, inside the bars' outer grasp spots: the last bar, held outside the rungs,
+    slides onto both."""
     p = w.profile
-    return w.build(p(300, 0, 0, True), p(300, 0, 240, True), p(200, -80, 120), p(200, 80, 120))
+    return w.build(p(300, 0, 0, True), p(300, 0, 240, True), p(200, -40, 120), p(200, 40, 120))
 
 
 def t_bracket(w):

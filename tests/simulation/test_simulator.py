@@ -23,8 +23,10 @@ INFO_KEYS = {
     "clamps",
     "seconds",
 }
-RULE_SET = [1, 4, 8, 13, 46, 141]
-"""A5 seeds whose labels, together, every rule decides (found by scanning seeds 0…150)."""
+RULE_SET = [0, 1, 4, 7, 8, 305]
+"""A5 seeds whose labels, together, every rule decides (found by scanning seeds 0…305)."""
+ARM = 8
+"""An A5 seed where clamps and arm links both decide."""
 
 
 def a5(sim: Simulator, index: int):
@@ -69,8 +71,8 @@ def test_switching_a_rule_off_changes_exactly_the_labels_it_decides(real_sim, wo
 
 
 def test_every_listed_order_replays_in_mujoco_and_no_other_does(real_sim):
-    """Seed 13: clamps and arm links decide; all 120 orders through the uncached check."""
-    sample = real_sim.label(a5(real_sim, 13))
+    """Clamps and arm links decide; all 120 orders through the uncached MuJoCo check."""
+    sample = real_sim.label(a5(real_sim, ARM))
     assert {"arm_links", "clamps"} <= set(sample.info["decisive_rules"])
     listed = set(sample.truth.orders())
     assert listed
@@ -79,7 +81,7 @@ def test_every_listed_order_replays_in_mujoco_and_no_other_does(real_sim):
 
 
 def test_explain_agrees_with_the_labels_and_names_the_robot_body(real_sim):
-    sample = real_sim.label(a5(real_sim, 13))
+    sample = real_sim.label(a5(real_sim, ARM))
     truth, assembly = sample.truth, sample.assembly
     bodies = set()
     for state, placeable in zip(truth.states.tolist(), truth.placeable.tolist(), strict=True):
@@ -96,7 +98,7 @@ def test_explain_agrees_with_the_labels_and_names_the_robot_body(real_sim):
 
 
 def test_pose_puts_the_tcp_on_the_grasp(real_sim):
-    assembly = a5(real_sim, 13)
+    assembly = a5(real_sim, ARM)
     first = next(iter(real_sim.label(assembly).truth.orders()))
     placed = 0
     for part in first:
@@ -118,7 +120,7 @@ def test_pose_puts_the_tcp_on_the_grasp(real_sim):
 def test_three_simulators_label_the_same_structures(world):
     sims = {name: instantiate(world.config(name)) for name in ("dual_arm", "single_arm", "boxes")}
     assert [s.cell.n_arms for s in sims.values()] == [2, 1, 0]
-    assembly = a5(sims["dual_arm"], 141)
+    assembly = a5(sims["dual_arm"], 305)
     orders = {name: set(s.label(assembly).truth.orders()) for name, s in sims.items()}
     # Fewer arms can only remove options: boxes ⊇ dual ⊇ single.
     assert orders["single_arm"] <= orders["dual_arm"] <= orders["boxes"]
