@@ -1,9 +1,9 @@
-"""Assembly orders as a DAG over states (SPEC §1, §6).
+"""Assembly orders as a DAG over states (paper Sec. III; docs/metrics.md).
 
 A state is a bitmask of placed parts (bit i = part i). Listing every complete order costs N!, but
 the orders of an assembly are exactly the paths of a DAG with at most 2^N nodes: for every state
 reachable from the empty one we keep which parts can be placed next (`placeable`) and which of
-those still lead to a complete assembly (`completable`, the next-step labels of SPEC §7).
+those still lead to a complete assembly (`completable`, the next-step labels, docs/metrics.md).
 """
 
 from __future__ import annotations
@@ -146,7 +146,7 @@ class GroundTruth:
         return int(self.completable[pos])
 
     def order_states(self) -> np.ndarray:
-        """The decision states of the ground-truth orders (SPEC §7 step-AUC test states).
+        """The decision states of the ground-truth orders (step-AUC test states, docs/metrics.md).
 
         Every non-complete state on some complete order; for an infeasible assembly the empty
         state, whose labels are all 0 (no first part leads to completion). These are the states
@@ -210,7 +210,8 @@ class GroundTruth:
         yield from self._paths("completable", complete=True, limit=limit)
 
     def dead_ends(self, limit: int | None = None) -> Iterator[tuple[int, ...]]:
-        """Partial orders that reach a state where no part can be placed (SPEC §3)."""
+        """Partial orders that reach a state where no part can be placed (`inter_solutions.csv`,
+        docs/raw-format.md)."""
         yield from self._paths("placeable", complete=False, limit=limit)
 
     def _paths(self, mask_of: str, complete: bool, limit: int | None) -> Iterator[tuple[int, ...]]:
