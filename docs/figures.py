@@ -108,19 +108,19 @@ def infeasibility_figure(simulator, path: Path) -> None:
         draw(ax, sample)
         motions = simulator.motions(sample.assembly)
         for part, options in zip(sample.assembly.parts, motions, strict=True):
-            slides = [m for m in options if m.kind == "slide" and not m.joint_blockers]
-            if slides and part.type.is_profile:
-                shortest = min(slides, key=lambda m: m.travel)
-                start = part.pose[:2, 3] + np.asarray(shortest.waypoints[0][:2])
-                ax.annotate(
-                    "", part.pose[:2, 3], start, arrowprops={"arrowstyle": "->", "color": "#b71c1c"}
-                )
+            # A stem's push into its joint(s): the shortest slide that makes all its connections.
+            push = simulator.motion.slide_length + 1e-6
+            for m in options:
+                if m.kind == "slide" and not m.joint_blockers and m.travel <= push:
+                    start = part.pose[:2, 3] + np.asarray(m.waypoints[0][:2])
+                    arrow = {"arrowstyle": "->", "color": "#b71c1c"}
+                    ax.annotate("", part.pose[:2, 3], start, arrowprops=arrow)
         ax.set_xlabel(f"{caption}\n{_orders_text(sample)}", fontsize=7)
     for ax in list(axes.flat)[len(panels) :]:
         ax.axis("off")
     fig.suptitle(
         "One panel per infeasibility mechanism, labelled by the MuJoCo cell (docs/world.md); "
-        "red arrows: slides into T-slot joints; hatched: clamps",
+        "red arrows: stems sliding into their T-slot joints; hatched: clamps",
         fontsize=9,
     )
     fig.tight_layout()
