@@ -77,3 +77,67 @@ def dataset_stats(
         "seconds_per_assembly": {str(n): float(t) for n, t in sorted(seconds_per_assembly.items())},
         "dataset_path": str(dataset_path),
     }
+
+
+SIMULATORS = ("dual_arm", "single_arm", "boxes")
+"""The simulator group's choices, compared on the same generated structures."""
+
+
+def simulator_comparison(
+    labelled: Mapping[str, Sequence[LabelledAssembly]],
+) -> dict[str, dict[str, Any]]:
+    """Per size, what the robot and the second arm change, from the same structures labelled by
+    `dual_arm`, `single_arm` and `boxes` (same seeds: same assemblies in the same order).
+
+    `labels_changed_vs_*`: share of assemblies whose set of complete orders differs from
+    `dual_arm`'s; `feasible_only_with_two_arms`: share feasible with two arms, not with one.
+    """
+    dual, single, boxes = (labelled[name] for name in SIMULATORS)
+    out: dict[str, dict[str, Any]] = {}
+    for size in sorted({s.size for s in dual}):
+        rows = [
+            (d, s, b)
+            for d, s, b in zip(dual, single, boxes, strict=True)
+            if d.size == size and d.assembly == s.assembly == b.assembly
+        ]
+        n = len(rows)
+        out[str(size)] = {
+            "assemblies": n,
+            "infeasible_fraction": {
+                name: _fraction(sum(not r[k].truth.feasible for r in rows), n)
+                for k, name in enumerate(SIMULATORS)
+            },
+            "labels_changed_vs_boxes": _fraction(
+                sum(not d.truth.same_orders(b.truth) for d, _, b in rows), n
+            ),
+            "labels_changed_vs_single_arm": _fraction(
+                sum(not d.truth.same_orders(s.truth) for d, s, _ in rows), n
+            ),
+            "feasible_only_with_two_arms": _fraction(
+                sum(d.truth.feasible and not s.truth.feasible for d, s, _ in rows), n
+            ),
+        }
+    return out
+
+
+def main() -> None:
+    """`python -m grace.data.stats [overrides…]`: the three simulators on the same data set
+    (generated, or read from the cache, like `task=generate`), printed as JSON."""
+    import json
+    import sys
+
+    from hydra import compose, initialize_config_dir
+
+    from grace import CONF_DIR
+    from grace.data.store import load_generated
+
+    labelled = {}
+    for name in SIMULATORS:
+        with initialize_config_dir(config_dir=str(CONF_DIR), version_base=None):
+            cfg = compose("config", overrides=[*sys.argv[1:], f"simulator={name}"])
+        labelled[name] = load_generated(cfg)
+    print(json.dumps(simulator_comparison(labelled), indent=2))
+
+
+if __name__ == "__main__":
+    main()

@@ -65,3 +65,17 @@ def test_undefined_fractions_are_null_and_sizes_are_string_keys():
     assert stats["per_size"]["4"]["orders_mean"] == 24.0
     assert stats["seconds_per_assembly"] == {"3": 0.5, "4": 0.25}
     assert stats["dataset_path"] == "/d"
+
+
+def test_simulator_comparison_counts_changed_labels_and_gained_feasibility():
+    from grace.data.stats import simulator_comparison
+
+    dual = [_sample(3, FREE), _sample(3, CHAIN), _sample(3, CHAIN)]
+    single = [_sample(3, CHAIN), _sample(3, NEVER_LAST), _sample(3, CHAIN)]
+    boxes = [_sample(3, FREE), _sample(3, FREE), _sample(3, CHAIN)]
+    out = simulator_comparison({"dual_arm": dual, "single_arm": single, "boxes": boxes})["3"]
+    assert out["assemblies"] == 3
+    assert out["infeasible_fraction"] == {"dual_arm": 0.0, "single_arm": 1 / 3, "boxes": 0.0}
+    assert out["labels_changed_vs_boxes"] == pytest.approx(1 / 3)
+    assert out["labels_changed_vs_single_arm"] == pytest.approx(2 / 3)
+    assert out["feasible_only_with_two_arms"] == pytest.approx(1 / 3)
