@@ -1,8 +1,11 @@
 """Draw the README's pictures with the real simulator: `python docs/figures.py [out_dir]`.
 
-`infeasibility.png`: hand-built assemblies labelled by the MuJoCo robot cell of
-`conf/simulator/dual_arm.yaml`, with each part's slide motion drawn as an arrow and the orders
-the simulator found. `topview.png` is the one `python -m grace task=generate` writes into its run
+`infeasibility.png`: one panel per infeasibility mechanism (docs/world.md), each an assembly
+labelled by the MuJoCo cell of `grace/conf/simulator/dual_arm.yaml`: hand-built frames where a
+small one shows the mechanism, otherwise the first generated A7 assembly (seed 0) that only this
+mechanism makes infeasible (or, failing that, one it shares with others); plus a feasible ladder
+with its orders. Slide motions are arrows,
+clamps hatched. `topview.png` is the one `python -m grace task=generate` writes into its run
 folder.
 """
 
@@ -16,11 +19,11 @@ from hydra import compose, initialize_config_dir
 from hydra.utils import instantiate
 from matplotlib.figure import Figure
 
+from grace import CONF_DIR
 from grace.domain.assembly import Assembly, Part, PartType, planar_pose
 from grace.domain.sample import LabelledAssembly
+from grace.simulation.cell_config import MECHANISMS
 from grace.visualisation.topview import draw
-
-CONF = Path(__file__).resolve().parents[1] / "conf"
 
 
 def profile(length: int, x: float, y: float, along_x: bool = False) -> Part:
@@ -33,52 +36,100 @@ def build(name: str, *parts: Part) -> Assembly:
     return Assembly(named, name=name)
 
 
-CASES = {
-    "stems 10 mm apart: no room for the gripper's finger": build(
-        "finger gap", profile(300, 0, 0, True), profile(300, -40, 170), profile(200, 10, 120)
+HAND = {
+    "narrow_rails": (
+        "stems 8 mm apart: no room for a finger beside whichever comes first",
+        build("rails", profile(300, 0, 0, True), profile(200, -24, 120), profile(200, 24, 120)),
     ),
-    "stems 60 mm apart: both orders": build(
-        "wide gap", profile(300, 0, 0, True), profile(300, -40, 170), profile(200, 60, 120)
-    ),
-    "equal stems 10 mm apart: whichever comes second is blocked": build(
-        "blocked", profile(300, 0, 0, True), profile(200, -30, 120), profile(200, 20, 120)
-    ),
-    "slide corridor: 3 lies where 1 slides in": build(
-        "corridor",
-        profile(300, 0, 0, True),
-        profile(200, 0, 120),
-        profile(300, 120, 170),
-        profile(200, 0, 270, True),
+    "frame_closing": (
+        "closed rectangle: the last part cannot slide in, its own frame is in the way",
+        build(
+            "rectangle",
+            profile(300, 0, 0, True),
+            profile(300, 0, 240, True),
+            profile(200, -130, 120),
+            profile(200, 130, 120),
+        ),
     ),
 }
+LADDER = (
+    "ladder (feasible): rungs between the bars, the last bar slides onto both",
+    build(
+        "ladder",
+        profile(300, 0, 0, True),
+        profile(300, 0, 240, True),
+        profile(200, -40, 120),
+        profile(200, 40, 120),
+    ),
+)
 
 
 def _orders_text(sample: LabelledAssembly) -> str:
-    orders = [" ".join(map(str, o)) for o in sample.truth.orders(limit=6)]
+    orders = [" ".join(map(str, o)) for o in sample.truth.orders(limit=4)]
     more = sample.truth.n_orders() - len(orders)
     return "orders: " + ("; ".join(orders) or "none") + (f" (+{more})" if more > 0 else "")
 
 
+def _generated(simulator, mechanism: str, size: int = 7, tries: int = 300) -> LabelledAssembly:
+    """The first generated assembly that only `mechanism` makes infeasible, else the first that
+    it is one of several mechanisms of."""
+    shared = None
+    for index in range(tries):
+        rng = np.random.default_rng(np.random.SeedSequence([0, size, index]))
+        sample = simulator.sample(size, rng)
+        found = sample.info.get("mechanisms") or []
+        if mechanism in found:
+            sample.assembly.name = f"A{size}-{index:06d}"
+            if found == [mechanism]:
+                return sample
+            shared = shared or sample
+    if shared is None:
+        raise LookupError(f"no A{size} assembly in {tries} made infeasible by {mechanism}")
+    return shared
+
+
 def infeasibility_figure(simulator, path: Path) -> None:
-    fig = Figure(figsize=(4.0 * len(CASES), 4.8))
-    for ax, (caption, assembly) in zip(fig.subplots(1, len(CASES)), CASES.items(), strict=True):
-        sample = simulator.label(assembly)
+    panels: list[tuple[str, LabelledAssembly]] = []
+    for mechanism in MECHANISMS:
+        if mechanism in HAND:
+            caption, assembly = HAND[mechanism]
+            panels.append((f"{mechanism}: {caption}", simulator.label(assembly)))
+            continue
+        try:
+            panels.append((f"{mechanism}: generated", _generated(simulator, mechanism)))
+        except LookupError as missing:
+            print(missing)
+    panels.append((LADDER[0], simulator.label(LADDER[1])))
+    columns = 4
+    rows = -(-len(panels) // columns)
+    fig = Figure(figsize=(4.2 * columns, 4.6 * rows))
+    axes = fig.subplots(rows, columns, squeeze=False)
+    for ax, (caption, sample) in zip(axes.flat, panels, strict=False):
         draw(ax, sample)
-        for part, motions in zip(assembly.parts, simulator.motions(assembly), strict=True):
-            for motion in motions:
-                if motion.kind == "slide":
-                    start = part.pose[:2, 3] + np.asarray(motion.waypoints[0][:2])
-                    end = part.pose[:2, 3]
-                    ax.annotate("", end, start, arrowprops={"arrowstyle": "->", "color": "#b71c1c"})
+        motions = simulator.motions(sample.assembly)
+        for part, options in zip(sample.assembly.parts, motions, strict=True):
+            # A stem's push into its joint(s): the shortest slide that makes all its connections.
+            push = simulator.motion.slide_length + 1e-6
+            for m in options:
+                if m.kind == "slide" and not m.joint_blockers and m.travel <= push:
+                    start = part.pose[:2, 3] + np.asarray(m.waypoints[0][:2])
+                    arrow = {"arrowstyle": "->", "color": "#b71c1c"}
+                    ax.annotate("", part.pose[:2, 3], start, arrowprops=arrow)
         ax.set_xlabel(f"{caption}\n{_orders_text(sample)}", fontsize=7)
-    fig.suptitle("red arrows: T-slot slide motions; orders as found by the MuJoCo cell", fontsize=9)
+    for ax in list(axes.flat)[len(panels) :]:
+        ax.axis("off")
+    fig.suptitle(
+        "One panel per infeasibility mechanism, labelled by the MuJoCo cell (docs/world.md); "
+        "red arrows: stems sliding into their T-slot joints; hatched: clamps",
+        fontsize=9,
+    )
     fig.tight_layout()
-    fig.savefig(path, dpi=110, bbox_inches="tight")
+    fig.savefig(path, dpi=100, bbox_inches="tight")
 
 
 def main() -> None:
     out = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(__file__).parent
-    with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
+    with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
         cfg = compose("config")
     infeasibility_figure(instantiate(cfg.simulator), out / "infeasibility.png")
 

@@ -1,20 +1,22 @@
 """The assembly: parts, their surfaces, poses and the pairwise surface relations.
 
-This is the bottom of the data flow (SPEC §2–§4): the simulator builds assemblies, the raw-format
-reader imports them, the graph builder reads them. Nothing here imports anything above it.
+This is the bottom of the data flow (docs/assembly-graph.md): the simulator builds assemblies,
+the raw-format reader imports them, the graph builder reads them. Nothing here imports anything
+above it.
 
 Conventions (all lengths in millimetres, poses as 4×4 homogeneous matrices in the world frame):
 - A part's local frame has its origin at the centre of its footprint on the table (z = 0 is the
   table plane) and z pointing up. Poses are axis-aligned (rotations about z by multiples of 90°).
 - Profiles lie along their local y axis: x ∈ [−20, 20], y ∈ [−L/2, L/2], z ∈ [0, 40].
-  Surfaces are numbered clockwise in a top view starting from the part's top (SPEC §2):
+  Surfaces are numbered clockwise in a top view starting from the part's top
+  (docs/assembly-graph.md):
   1 = +y end (short), 2 = +x side (long), 3 = −y end (short), 4 = −x side (long).
 - An angle bracket is an L in the plane whose two legs run along local +x and +y from its outer
   corner at the origin; its lateral surfaces face the two profiles it joins:
   1 = the face with normal −x (it leans on the profile to its left),
   2 = the face with normal −y (it rests on the profile below it).
-- Parts are numbered from the one whose origin is closest to the world origin (SPEC §2);
-  :func:`canonical_order` gives that order.
+- Parts are numbered from the one whose origin is closest to the world origin
+  (docs/assembly-graph.md); :func:`canonical_order` gives that order.
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ from enum import IntEnum, StrEnum
 import numpy as np
 
 PROFILE_SECTION_MM = 40.0
-"""Side of the square aluminium-profile section (SPEC §10)."""
+"""Side of the square aluminium-profile section (docs/world.md)."""
 
 BRACKET_LEG_MM = 40.0
 """Length of each leg of the angle bracket, measured from its outer corner."""
@@ -36,7 +38,7 @@ BRACKET_THICKNESS_MM = 8.0
 
 
 class PartType(StrEnum):
-    """Part types by their raw names in `assembly.spec` (SPEC §3)."""
+    """Part types by their raw names in `assembly.spec` (docs/raw-format.md)."""
 
     PROFILE_200 = "item_profile_200"
     PROFILE_300 = "item_profile_300"
@@ -57,12 +59,12 @@ class PartType(StrEnum):
 
     @property
     def index(self) -> int:
-        """Integer code used as the part-type node feature (SPEC §4)."""
+        """Integer code used as the part-type node feature (docs/assembly-graph.md)."""
         return list(PartType).index(self)
 
 
 class SurfaceType(IntEnum):
-    """The five surface-type classes of SPEC §2, used as the surface node feature."""
+    """The five surface-type classes of docs/assembly-graph.md, used as the surface node feature."""
 
     P200_SHORT = 0
     P200_LONG = 1
@@ -184,7 +186,7 @@ class Part:
 
 
 def surface_relation(a: Surface, b: Surface, same_surface: bool) -> float:
-    """Edge feature between two surfaces (SPEC §4).
+    """Edge feature between two surfaces (paper Sec. III-A; docs/assembly-graph.md).
 
     0 for the self loop, 1 for two surfaces of the same part, −1 for orthogonal surfaces and the
     distance between the two parallel planes, floored to whole mm as the reference does, otherwise.
@@ -204,9 +206,9 @@ def surface_relation(a: Surface, b: Surface, same_surface: bool) -> float:
 class Assembly:
     """An assembly of N parts with its surface table and surface-relation matrix.
 
-    `relations[i, j]` is the edge feature between surfaces i and j (SPEC §4) in the order of
-    :meth:`surfaces`. It is computed from the poses unless given (raw imports carry their own
-    `distances.csv` values, which then take precedence for the listed pairs).
+    `relations[i, j]` is the edge feature between surfaces i and j (docs/assembly-graph.md) in
+    the order of :meth:`surfaces`. It is computed from the poses unless given (raw imports carry
+    their own `distances.csv` values, which then take precedence for the listed pairs).
     """
 
     parts: tuple[Part, ...]
@@ -239,7 +241,7 @@ class Assembly:
         return list(cached[1])
 
     def surface_names(self) -> list[str]:
-        """Raw surface names `<part>_surface_<k>` in surface order (SPEC §3)."""
+        """Raw surface names `<part>_surface_<k>` in surface order (docs/raw-format.md)."""
         return [f"{self.parts[s.part].name}_surface_{s.index}" for s in self.surfaces()]
 
     def geometric_relations(self) -> np.ndarray:
@@ -253,7 +255,8 @@ class Assembly:
 
 
 def canonical_order(parts: list[Part]) -> list[Part]:
-    """Parts sorted by distance of their origin to the world origin, ties by (x, y) (SPEC §2)."""
+    """Parts sorted by distance of their origin to the world origin, ties by (x, y)
+    (docs/assembly-graph.md)."""
     return sorted(parts, key=lambda p: (round(math.hypot(*p.xy), 6), p.xy))
 
 

@@ -12,15 +12,23 @@ class Motion:
     """A polyline of part positions relative to the final pose, start first, final pose last.
 
     `waypoints` is a (K, 3) array of translation offsets in world mm; the part keeps its final
-    orientation throughout. A top-down placement is [(0, 0, h), (0, 0, 0)]; a T-slot insertion
-    is lowered at an offset back along the part's axis, then slides horizontally into the joint:
-    [(−d·s, 0, h), (−d·s, 0, 0), (0, 0, 0)] for slide direction d and slide length s.
+    orientation throughout. A top-down placement is [(0, 0, h), (0, 0, 0)]; a slide along the
+    part's own axis is lowered `travel` mm back along it, then slides into place:
+    [(−d·t, h), (−d·t, 0), (0, 0, 0)] for slide direction d and travel t.
     `kind` is "top_down" or "slide"; `direction` the unit slide direction in the plane, if any.
+    `joint_blockers` is the bitmask of parts whose T-slot connection with this part the motion
+    cannot make once they are placed (docs/world.md, rule "joints").
     """
 
     kind: str
     waypoints: np.ndarray
     direction: tuple[float, float] | None = None
+    joint_blockers: int = 0
+
+    @property
+    def travel(self) -> float:
+        """Horizontal length of the motion (0 for a top-down placement)."""
+        return float(np.hypot(*np.asarray(self.waypoints[0][:2], dtype=float)))
 
     def segments(self) -> list[tuple[np.ndarray, np.ndarray]]:
         w = np.asarray(self.waypoints, dtype=float)

@@ -1,9 +1,9 @@
-"""Assembly orders as a DAG over states (SPEC §1, §6).
+"""Assembly orders as a DAG over states (paper Sec. III; docs/metrics.md).
 
 A state is a bitmask of placed parts (bit i = part i). Listing every complete order costs N!, but
 the orders of an assembly are exactly the paths of a DAG with at most 2^N nodes: for every state
 reachable from the empty one we keep which parts can be placed next (`placeable`) and which of
-those still lead to a complete assembly (`completable`, the next-step labels of SPEC §7).
+those still lead to a complete assembly (`completable`, the next-step labels, docs/metrics.md).
 """
 
 from __future__ import annotations
@@ -50,23 +50,44 @@ class GroundTruth:
         Each (state, part) pair is checked once, so the work is O(2^N · N) checks instead of the
         O(N · N!) of listing orders.
         """
-        full = full_mask(n_parts)
-        placeable: dict[int, int] = {}
-        frontier = [0]
+
+        def vectorised(states: np.ndarray, part: int) -> np.ndarray:
+            return np.array([bool(can_place(int(s), part)) for s in states], dtype=bool)
+
+        return cls.explore_many(n_parts, vectorised)
+
+    @classmethod
+    def explore_many(
+        cls,
+        n_parts: int,
+        can_place: Callable[[np.ndarray, int], np.ndarray],
+        naive_checks: bool = True,
+    ) -> GroundTruth:
+        """:meth:`explore` with a check over many states at once: `can_place(states, part)`
+        returns a bool array for an int64 array of states that all lack `part`. The simulator's
+        rules are bitmask tests, so one numpy call per (layer, part) replaces a Python call per
+        (state, part), which large assemblies (2^16 states) need. `naive_checks=False` skips
+        counting the brute force's checks (ablations compare orders only)."""
+        frontier = np.zeros(1, dtype=np.int64)
+        states, placeable = [], []
         checks = 0
-        while frontier:
-            nxt = set()
-            for state in frontier:
-                mask = 0
-                for part in range(n_parts):
-                    if not state >> part & 1:
-                        checks += 1
-                        if can_place(state, part):
-                            mask |= 1 << part
-                            nxt.add(state | 1 << part)
-                placeable[state] = mask
-            frontier = sorted(nxt)
-        gt = cls._from_placeable(n_parts, placeable, full)
+        while frontier.size:
+            mask = np.zeros_like(frontier)
+            children = []
+            for part in range(n_parts):
+                bit = np.int64(1) << part
+                free = np.flatnonzero((frontier & bit) == 0)
+                checks += free.size
+                if free.size:
+                    ok = free[np.asarray(can_place(frontier[free], part), dtype=bool)]
+                    mask[ok] |= bit
+                    children.append(frontier[ok] | bit)
+            states.append(frontier)
+            placeable.append(mask)
+            frontier = np.unique(np.concatenate(children)) if children else frontier[:0]
+        gt = cls._from_arrays(
+            n_parts, np.concatenate(states), np.concatenate(placeable), naive_checks
+        )
         gt.checks = checks
         return gt
 
@@ -86,44 +107,46 @@ class GroundTruth:
         placeable.setdefault(0, 0)
         if orders:
             placeable.setdefault(full, 0)
-        return cls._from_placeable(n_parts, placeable, full)
+        keys = np.array(list(placeable), dtype=np.int64)
+        return cls._from_arrays(n_parts, keys, np.array(list(placeable.values()), dtype=np.int64))
 
     @classmethod
-    def _from_placeable(cls, n_parts: int, placeable: dict[int, int], full: int) -> GroundTruth:
-        states = np.array(sorted(placeable), dtype=np.int64)
-        good = {full} if full in placeable else set()
-        completable: dict[int, int] = {}
-        # Supersets come later in popcount order: walk states from full towards empty.
-        for state in sorted(placeable, key=lambda s: -s.bit_count()):
-            mask = 0
-            for part in mask_to_parts(placeable[state]):
-                if state | 1 << part in good:
-                    mask |= 1 << part
-            completable[state] = mask
-            if mask:
-                good.add(state)
-        gt = cls(
-            n_parts=n_parts,
-            states=states,
-            placeable=np.array([placeable[s] for s in states], dtype=np.int64),
-            completable=np.array([completable[s] for s in states], dtype=np.int64),
-        )
-        gt.naive_checks = gt._naive_checks()
+    def _from_arrays(
+        cls, n_parts: int, states: np.ndarray, placeable: np.ndarray, naive_checks: bool = True
+    ) -> GroundTruth:
+        order = np.argsort(states, kind="stable")
+        states, placeable = states[order].astype(np.int64), placeable[order].astype(np.int64)
+        full = full_mask(n_parts)
+        count = np.bitwise_count(states)
+        good = states == full
+        completable = np.zeros_like(placeable)
+        # Supersets have more bits: walk the layers from full towards empty.
+        for k in range(n_parts - 1, -1, -1):
+            idx = np.flatnonzero(count == k)
+            if not idx.size:
+                continue
+            for part, pos, has in _children(states, placeable, idx, n_parts):
+                ok = good[pos]
+                completable[idx[has][ok]] |= np.int64(1) << part
+            good[idx] = completable[idx] != 0
+        gt = cls(n_parts=n_parts, states=states, placeable=placeable, completable=completable)
+        if naive_checks:
+            gt.naive_checks = gt._naive_checks()
         return gt
 
     @property
     def feasible(self) -> bool:
         return bool(self.completable[0]) if self.states[0] == 0 else False
 
-    def _index(self) -> dict[int, int]:
-        return {int(s): i for i, s in enumerate(self.states)}
-
     def label(self, state: int) -> int:
         """Next-step label mask of `state`: parts whose placement still allows completion."""
-        return int(self.completable[self._index()[state]])
+        pos = int(np.searchsorted(self.states, state))
+        if pos >= len(self.states) or self.states[pos] != state:
+            raise KeyError(state)
+        return int(self.completable[pos])
 
     def order_states(self) -> np.ndarray:
-        """The decision states of the ground-truth orders (SPEC §7 step-AUC test states).
+        """The decision states of the ground-truth orders (step-AUC test states, docs/metrics.md).
 
         Every non-complete state on some complete order; for an infeasible assembly the empty
         state, whose labels are all 0 (no first part leads to completion). These are the states
@@ -134,36 +157,61 @@ class GroundTruth:
         keep = (self.completable != 0) & (self.states != full_mask(self.n_parts))
         return self.states[keep].astype(np.int64)
 
+    def _counts(self, masks: np.ndarray) -> np.ndarray:
+        """Number of paths from the empty state to each state along `masks` (int64 per state)."""
+        counts = np.zeros(len(self.states), dtype=np.int64)
+        if not len(self.states) or self.states[0] != 0:
+            return counts
+        counts[0] = 1
+        count = np.bitwise_count(self.states)
+        for k in range(self.n_parts):
+            idx = np.flatnonzero(count == k)
+            for _, pos, has in _children(self.states, masks, idx, self.n_parts):
+                np.add.at(counts, pos, counts[idx[has]])
+        return counts
+
     def path_counts(self, mask_of: str = "placeable") -> dict[int, int]:
         """Number of paths from the empty state to each state along `placeable` or `completable`."""
-        masks = dict(zip(self.states.tolist(), getattr(self, mask_of).tolist(), strict=True))
-        counts = {0: 1}
-        for state in sorted(masks, key=int.bit_count):
-            c = counts.get(state, 0)
-            if not c:
-                continue
-            for part in mask_to_parts(masks[state]):
-                counts[state | 1 << part] = counts.get(state | 1 << part, 0) + c
-        return counts
+        counts = self._counts(getattr(self, mask_of))
+        keep = counts > 0
+        return dict(zip(self.states[keep].tolist(), counts[keep].tolist(), strict=True))
 
     def n_orders(self) -> int:
         """Number of complete feasible orders, without listing them."""
-        return self.path_counts("completable").get(full_mask(self.n_parts), 0)
+        full = full_mask(self.n_parts)
+        if self.states[-1] != full:
+            return 0
+        return int(self._counts(self.completable)[-1])
+
+    def same_orders(self, other: GroundTruth) -> bool:
+        """True if both have the same set of complete orders (compared as DAGs, not lists)."""
+        mine, theirs = self._order_dag(), other._order_dag()
+        return all(np.array_equal(a, b) for a, b in zip(mine, theirs, strict=True))
+
+    def _order_dag(self) -> tuple[np.ndarray, np.ndarray]:
+        cached = self.__dict__.get("_dag")
+        if cached is not None and cached[0] is self.completable:
+            return cached[1]
+        on = self._counts(self.completable) > 0
+        on &= (self.completable != 0) | (self.states == full_mask(self.n_parts))
+        dag = (self.states[on], self.completable[on])
+        self.__dict__["_dag"] = (self.completable, dag)
+        return dag
 
     def _naive_checks(self) -> int:
-        counts = self.path_counts("placeable")
-        return sum(
-            c * math.factorial(self.n_parts - s.bit_count())
-            for s, c in counts.items()
-            if s != full_mask(self.n_parts)
-        )
+        counts = self._counts(self.placeable)
+        remaining = self.n_parts - np.bitwise_count(self.states)
+        factorial = np.array([math.factorial(k) for k in range(self.n_parts + 1)], dtype=np.int64)
+        keep = self.states != full_mask(self.n_parts)
+        return int(np.sum(counts[keep] * factorial[remaining[keep]]))
 
     def orders(self, limit: int | None = None) -> Iterator[tuple[int, ...]]:
         """Complete feasible orders in lexicographic order (at most `limit`)."""
         yield from self._paths("completable", complete=True, limit=limit)
 
     def dead_ends(self, limit: int | None = None) -> Iterator[tuple[int, ...]]:
-        """Partial orders that reach a state where no part can be placed (SPEC §3)."""
+        """Partial orders that reach a state where no part can be placed (`inter_solutions.csv`,
+        docs/raw-format.md)."""
         yield from self._paths("placeable", complete=False, limit=limit)
 
     def _paths(self, mask_of: str, complete: bool, limit: int | None) -> Iterator[tuple[int, ...]]:
@@ -183,3 +231,22 @@ class GroundTruth:
                 continue
             for part in reversed(mask_to_parts(nxt)):
                 stack.append((state | 1 << part, (*prefix, part)))
+
+
+def _children(
+    states: np.ndarray, masks: np.ndarray, idx: np.ndarray, n_parts: int
+) -> Iterator[tuple[int, np.ndarray, np.ndarray]]:
+    """Per part: (part, positions in `states` of the children of `states[idx]` along `masks`,
+    which of `idx` have that child). `states` is sorted; children missing from it are dropped."""
+    for part in range(n_parts):
+        bit = np.int64(1) << part
+        has = (masks[idx] & bit) != 0
+        if not has.any():
+            continue
+        child = states[idx[has]] | bit
+        pos = np.minimum(np.searchsorted(states, child), len(states) - 1)
+        found = states[pos] == child
+        if not found.all():
+            has[np.flatnonzero(has)[~found]] = False
+            pos = pos[found]
+        yield part, pos, has

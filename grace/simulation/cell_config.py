@@ -1,98 +1,216 @@
-"""The robot cell's configuration (grace/conf/simulator/cell/*.yaml), checked once and typed.
+"""Typed configs of the simulator group, registered with Hydra's ConfigStore as schemas.
 
-Every number of the cell lives in the yaml (issue 2): lengths in millimetres, angles in degrees,
-as the domain uses; the MuJoCo model converts to metres and radians.
+The yaml files under `grace/conf/simulator/` extend these nodes (`defaults: [schema, _self_]`),
+so Hydra rejects an unknown or missing key, or a value of the wrong type, when it composes the
+config. The simulator receives plain values from `hydra.utils.instantiate(cfg.simulator)` and
+turns them back into these dataclasses with :func:`typed`, which applies the same schema to
+configs built in code. Only checks a type cannot express stay hand-written (`check_*`), each one
+line naming the key and the fix (`grace.errors.UserError`).
+
+Lengths are millimetres and angles degrees, as the domain uses; the MuJoCo model converts to
+metres and radians. The cell's facts and every rule are described in docs/world.md.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, fields
-from typing import Any
+from dataclasses import dataclass, field
+from typing import Any, TypeVar
 
-CONFIG_FILE = "grace/conf/simulator/cell/*.yaml"
+from hydra.core.config_store import ConfigStore
+from omegaconf import MISSING, OmegaConf
+from omegaconf.errors import OmegaConfBaseException
+
+from grace.errors import UserError
+
+CONFIG_DIR = "grace/conf/simulator"
+
+RULES = ("fixation", "joints", "fingers", "palm", "held_part", "arm_links", "clamps", "reach")
+"""The rules of the world (docs/world.md, "Rules"); each can be switched off alone."""
+
+MECHANISMS = (
+    "frame_closing",
+    "slide_corridor",
+    "narrow_rails",
+    "crowded_grasp",
+    "bracket_corner",
+    "clamp",
+    "arm",
+    "reach",
+)
+"""Physically distinct ways an assembly becomes infeasible (docs/world.md, "Mechanisms")."""
 
 
-@dataclass(frozen=True)
+@dataclass
 class TableConfig:
-    size: tuple[float, float, float]
+    size: list[float] = MISSING
     """x extent, y extent and thickness; the top is the plane z = 0."""
 
 
-@dataclass(frozen=True)
+@dataclass
 class ArmConfig:
-    link_lengths: tuple[float, float, float, float]
-    """Base → shoulder → elbow → wrist → flange (SPEC §10)."""
-    joint_limits: tuple[float, ...]
+    link_lengths: list[float] = MISSING
+    """Base → shoulder → elbow → wrist → flange of the iiwa 14 R820 (docs/world.md)."""
+    joint_limits: list[float] = MISSING
     """± limit of A1…A7 in degrees."""
-    link_radii: tuple[float, float, float, float]
+    link_radii: list[float] = MISSING
     """Capsule radii of column, upper arm, forearm, wrist."""
 
 
-@dataclass(frozen=True)
+@dataclass
 class GripperConfig:
-    palm_height: float
-    """Flange to the fingers' roots (adapter and palm)."""
-    finger_thickness: float
+    palm_height: float = MISSING
+    """Flange to the fingers' roots (adapter and gripper body)."""
+    palm_width: float = MISSING
+    """Gripper body across the opening direction."""
+    palm_depth: float = MISSING
+    """Gripper body along the grasped edge."""
+    finger_thickness: float = MISSING
     """Across the opening direction: what a finger needs beside a part."""
-    finger_width: float
+    finger_width: float = MISSING
     """Along the grasped edge."""
-    finger_length: float
-    max_opening: float
-    grasp_height: float
+    finger_length: float = MISSING
+    max_opening: float = MISSING
+    grasp_height: float = MISSING
     """Fingertips above the table when holding a profile."""
-    bracket_grip_depth: float
-    """How far the fingertips reach below a bracket's top when holding it by a leg."""
+    bracket_grip_depth: float = MISSING
+    """How far the fingertips reach below a bracket's top when holding it across a leg."""
 
 
-@dataclass(frozen=True)
+@dataclass
+class ClampConfig:
+    """The swing clamp that holds every placed profile down on the fixture plate."""
+
+    width: float = MISSING
+    """Body extent along the profile."""
+    depth: float = MISSING
+    """Body extent out from the profile's side."""
+    height: float = MISSING
+    """Body height above the table."""
+    arm_width: float = MISSING
+    """The clamping arm over the profile's top: extent along the profile ..."""
+    arm_thickness: float = MISSING
+    """... and its thickness above the profile's top."""
+    grid: float = MISSING
+    """Candidate clamp positions along a profile are multiples of this."""
+
+
+@dataclass
 class CellConfig:
-    table: TableConfig
-    arm: ArmConfig
-    bases: tuple[tuple[float, float, float, float], ...]
-    """Per arm: x, y, z of the A1 axis foot and the yaw (deg) A1 = 0 points to."""
-    gripper: GripperConfig
-    grasp_fractions: tuple[float, ...]
+    table: TableConfig = field(default_factory=TableConfig)
+    arm: ArmConfig = field(default_factory=ArmConfig)
+    bases: list[Any] = MISSING
+    """Per arm: x, y, z of the A1 axis foot and the yaw (deg) A1 = 0 points to; [] = no robot."""
+    gripper: GripperConfig = field(default_factory=GripperConfig)
+    clamp: ClampConfig = field(default_factory=ClampConfig)
+    grasp_fractions: list[float] = MISSING
     """Grasp positions along a profile's axis, as fractions of its length from its −y end."""
-    touch_tolerance: float
+    touch_tolerance: float = MISSING
     """Penetration up to this depth counts as touching, not colliding."""
-    arm_sample_step: float
+    arm_sample_step: float = MISSING
     """Largest TCP step between arm-link collision samples along a motion."""
-    max_parts: int
-    max_segments: int
-
-    @classmethod
-    def parse(cls, cfg: Mapping[str, Any]) -> CellConfig:
-        """Typed config from the yaml's keys; one clear error for a missing or unknown key."""
-        top = _check(cfg, cls, "")
-        nested = {"table": TableConfig, "arm": ArmConfig, "gripper": GripperConfig}
-        values = dict(top)
-        for key, kind in nested.items():
-            values[key] = kind(**{k: _value(v) for k, v in _check(top[key], kind, key).items()})
-        values["bases"] = tuple(tuple(float(x) for x in b) for b in top["bases"])
-        values["grasp_fractions"] = tuple(float(x) for x in top["grasp_fractions"])
-        values["touch_tolerance"] = float(top["touch_tolerance"])
-        values["arm_sample_step"] = float(top["arm_sample_step"])
-        values["max_parts"] = int(top["max_parts"])
-        values["max_segments"] = int(top["max_segments"])
-        if any(len(b) != 4 for b in values["bases"]) or not values["bases"]:
-            raise ValueError(f"{CONFIG_FILE}: field 'bases' needs one [x, y, z, yaw] per arm")
-        if len(values["arm"].joint_limits) != 7:
-            raise ValueError(f"{CONFIG_FILE}: field 'arm.joint_limits' needs 7 values (A1…A7)")
-        return cls(**values)
+    max_branches: int = MISSING
+    """IK branches (shoulder × elbow) tried per arm and option, preferred first."""
+    max_parts: int = MISSING
+    """Part slots of the compiled MuJoCo model (each part has its boxes and its clamp's)."""
 
 
-def _value(v: Any) -> Any:
-    return tuple(float(x) for x in v) if isinstance(v, Sequence) else float(v)
+@dataclass
+class MotionConfig:
+    slide_length: float = MISSING
+    """Last stretch a profile slides along its own axis into a T-slot joint."""
+    slide_lead: float = MISSING
+    """A profile sliding onto placed connectors starts this far before the first one it takes."""
+    approach_height: float = MISSING
+    """Height above the table a part is lowered from."""
 
 
-def _check(cfg: Mapping[str, Any], kind: type, prefix: str) -> dict[str, Any]:
-    names = {f.name for f in fields(kind)}
-    given = dict(cfg)
-    where = f"{prefix}." if prefix else ""
-    missing, unknown = names - set(given), set(given) - names
-    if missing:
-        raise ValueError(f"{CONFIG_FILE}: missing field '{where}{sorted(missing)[0]}'; add it")
+@dataclass
+class GeneratorConfig:
+    profile_300_share: float = MISSING
+    """Share of 300 mm profiles (the rest are 200 mm)."""
+    motif_weights: dict[str, float] = MISSING
+    """Relative weights of the ways a frame grows (docs/world.md, "Frames")."""
+    flush_share: float = MISSING
+    """Probability that a cap or a rung is flush with the ends it meets (a closed corner)."""
+    bracket_share: float = MISSING
+    """Probability that a growth step puts an angle bracket into a free inner corner."""
+    gap_mm: list[int] = MISSING
+    """Gap between neighbouring parallel stems of a comb: [narrowest, widest]."""
+    position_grid_mm: float = MISSING
+    work_area: list[float] = MISSING
+    """The structure's bounding box must fit [width x, depth y], centred on the origin."""
+    max_attempts: int = MISSING
+    max_restarts: int = MISSING
+
+
+@dataclass
+class SimulatorConfig:
+    _target_: str = "grace.simulation.simulator.Simulator"
+    _convert_: str = "all"
+    cell: CellConfig = field(default_factory=CellConfig)
+    generator: GeneratorConfig = field(default_factory=GeneratorConfig)
+    motion: MotionConfig = field(default_factory=MotionConfig)
+    rules: dict[str, bool] = field(default_factory=lambda: dict.fromkeys(RULES, True))
+
+
+def register() -> None:
+    """Store the schemas the yaml files extend (idempotent; `import grace` calls it)."""
+    store = ConfigStore.instance()
+    store.store(group="simulator", name="schema", node=SimulatorConfig)
+    store.store(group="simulator/cell", name="schema", node=CellConfig)
+    store.store(group="simulator/generator", name="schema", node=GeneratorConfig)
+
+
+T = TypeVar("T")
+
+
+def typed(kind: type[T], values: Any, key: str) -> T:
+    """`values` (a mapping) checked against the schema `kind` and returned as a `kind`.
+
+    One line naming the config key on an unknown, missing or mistyped field.
+    """
+    if isinstance(values, kind):
+        return values
+    try:
+        merged = OmegaConf.merge(OmegaConf.structured(kind), values)
+        return OmegaConf.to_object(merged)  # type: ignore[return-value]
+    except OmegaConfBaseException as error:
+        where = f"{key}.{error.full_key}" if getattr(error, "full_key", None) else key
+        reason = str(error).splitlines()[0]
+        raise UserError(
+            f"{CONFIG_DIR}: field '{where}': {reason}; fix it to match {kind.__name__}"
+        ) from None
+
+
+def check_cell(cfg: CellConfig) -> None:
+    """Physical checks of the cell a type cannot express."""
+    if any(len(b) != 4 for b in cfg.bases):
+        raise UserError(f"{CONFIG_DIR}/cell: field 'bases' needs one [x, y, z, yaw] per arm")
+    if len(cfg.arm.joint_limits) != 7 or len(cfg.arm.link_lengths) != 4:
+        raise UserError(
+            f"{CONFIG_DIR}/cell: fields 'arm.joint_limits' / 'arm.link_lengths' need 7 / 4 values"
+        )
+    g = cfg.gripper
+    if g.palm_width < g.max_opening + 2 * g.finger_thickness:
+        raise UserError(
+            f"{CONFIG_DIR}/cell: field 'gripper.palm_width' = {g.palm_width} is narrower than "
+            f"the open fingers ({g.max_opening} + 2 × {g.finger_thickness}); widen it"
+        )
+
+
+def check_generator(cfg: GeneratorConfig, motifs: set[str]) -> None:
+    """Generator checks a type cannot express: known motif names, a sane gap range."""
+    unknown = set(cfg.motif_weights) - motifs
     if unknown:
-        raise ValueError(f"{CONFIG_FILE}: unknown field '{where}{sorted(unknown)[0]}'; remove it")
-    return given
+        raise UserError(
+            f"{CONFIG_DIR}/generator: field 'motif_weights' has unknown motifs {sorted(unknown)};"
+            f" use {sorted(motifs)}"
+        )
+    lo, hi = cfg.gap_mm
+    if not 0 < lo < hi:
+        raise UserError(
+            f"{CONFIG_DIR}/generator: field 'gap_mm' = [{lo}, {hi}] needs 0 < narrowest < widest"
+        )
+
+
+register()

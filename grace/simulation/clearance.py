@@ -1,4 +1,4 @@
-"""Grasp candidates and the volumes swept by the gripper and the held part (issue 2, clearance).
+"""Grasp candidates and the volumes swept by the gripper and the held part (docs/world.md).
 
 Everything here is world-axis-aligned 3-D boxes in mm, as (lo, hi) corner pairs: parts lie at
 multiples of 90°, the gripper comes top-down with its fingers on two parallel faces, and motions
@@ -9,6 +9,7 @@ start and end copies (for a segment off the axes that box is a conservative hull
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -44,12 +45,12 @@ class Grasp:
         tip = self.tcp[2]
         root = tip + gripper.finger_length
         half_span = self.opening / 2 + t
-        palm_half = gripper.max_opening / 2 + t
+        palm = (gripper.palm_width / 2, gripper.palm_depth / 2)
         # (across the opening, along the edge, z) extents, then mapped to world x/y.
         local = [
             ((self.opening / 2, half_span), (-w / 2, w / 2), (tip, root)),
             ((-half_span, -self.opening / 2), (-w / 2, w / 2), (tip, root)),
-            ((-palm_half, palm_half), (-w / 2, w / 2), (root, root + gripper.palm_height)),
+            ((-palm[0], palm[0]), (-palm[1], palm[1]), (root, root + gripper.palm_height)),
         ]
         boxes = []
         for across, along, z in local:
@@ -63,15 +64,14 @@ class Grasp:
         return np.array(boxes)
 
 
-def grasp_candidates(
-    part: Part, gripper: GripperConfig, fractions: tuple[float, ...]
-) -> list[Grasp]:
-    """Top-down grasps of `part` in the world.
+def grasp_candidates(part: Part, gripper: GripperConfig, fractions: Sequence[float]) -> list[Grasp]:
+    """Top-down grasps of `part` in the world: a fixed set per part type, as the paper's
+    simulator has (grasp planning is named there as a restriction for future work, Sec. IV-A).
 
     A profile is held with the fingers on its two long faces at each fraction of its length. A
-    bracket sits flush between the two profiles it joins, so no finger fits beside its outer faces;
-    it is held across the wall of one leg at the middle of the leg's free stretch, the fingertips
-    reaching `bracket_grip_depth` below its top (one grasp per leg).
+    bracket is held across the wall of one leg at the middle of the leg's free stretch, the
+    fingertips `bracket_grip_depth` below its top (one grasp per leg): the outer finger then
+    stands where the profile that leg is fastened to goes, so that profile must come later.
     """
     turn = part.quarter_turns * math.pi / 2
     if part.type.is_profile:

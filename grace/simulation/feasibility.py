@@ -1,31 +1,32 @@
-"""Which part may be placed in which state, and the ground truth that follows (issue 2, SPEC §1).
+"""Which part may be placed in which state, the ground truth that follows, and why (docs/world.md).
 
 Placing part p when the set S (a bitmask) is placed is feasible iff
-- fixation holds: the first part is clamped (any profile may start); a later profile must touch a
-  part of S; a bracket needs both profiles it joins in S (it is never first), and
-- the robot has an option (arm, grasp, motion) that is `reachable` and whose `blockers & S == 0`.
+- fixation holds: the first part is a profile (clamped); a later profile touches a part of S; a
+  bracket needs one of the two profiles it joins in S (it is fastened to it), and
+- the cell has an option (arm, IK branch, grasp, motion) that is usable (reach: IK within the
+  limits along the motion; arm links: clear of table and itself) and none of whose blocker
+  masks for the active rules meets S.
 
-The robot's options are computed once per part with all other parts present (`blockers` lists the
-parts the swept gripper, held part and arm would penetrate), so enumerating the reachable states
-with `GroundTruth.explore` is pure bitmask work, not N! simulations.
+The cell's options are computed once per part with all other parts present, so enumerating the
+reachable states (`GroundTruth.explore_many`) is bitmask work, not N! simulations. Switching a
+rule off drops its masks (or its usability test), so the same table also gives the ground truth
+of every single-rule ablation and of every mechanism relaxation.
 
-Diagnostics (`LabelledAssembly.info`), partitioning the infeasible assemblies by the weakest rule
-set under which they are already infeasible:
-- `cause = "other"`: infeasible under fixation alone;
-- `cause = "collision"`: feasible under fixation alone, infeasible under fixation + clearance with
-  reach ignored (every option counts as reachable);
-- `cause = "reach"`: feasible under fixation + clearance, infeasible only once reach is required.
-For feasible assemblies (`cause = None`):
-- `robot_pruned`: the robot's rules (reach + clearance) remove complete orders that fixation alone
-  allows (fewer `n_orders`);
-- `nonlocal_block`: in some reachable state S some part p satisfies fixation, is not placeable, but
-  would be if only the blockers p touches counted: a part it does not touch is what stops it.
-`orders` is `n_orders()`, `fixation_orders` the count under fixation alone.
+Diagnostics (`LabelledAssembly.info`):
+- `cause` (infeasible only): "other" if fixation alone leaves no order, "collision" if no order
+  exists even with reach ignored, else "reach";
+- `mechanisms` (infeasible only): the mechanisms (`MECHANISMS`) whose relaxation alone makes the
+  assembly feasible, or ["compound"] if none alone does;
+- `decisive_rules`: the rules whose switching off alone changes the set of complete orders;
+- `robot_pruned` (feasible only): fewer orders than under fixation alone;
+- `nonlocal_block` (feasible only): in some reachable state a part that satisfies fixation is
+  stopped only by parts it does not touch;
+- `orders`, `fixation_orders`: order counts of the truth and of fixation alone.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -35,112 +36,218 @@ from grace.domain.assembly import Assembly
 from grace.domain.motion import Motion
 from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
-
-
-class Option(Protocol):
-    reachable: bool
-    blockers: int
+from grace.simulation.cell_config import MECHANISMS, RULES
+from grace.simulation.robot_cell import BODIES, KINDS, RULE_OF_BODY, PlacementOption, category
 
 
 class Cell(Protocol):
-    """What feasibility needs from the robot cell (grace.simulation.robot_cell.RobotCell)."""
-
-    def placement_options(
-        self, assembly: Assembly, part: int, motions: list[Motion]
-    ) -> Sequence[Option]: ...
+    """What `replay` needs from the robot cell (grace.simulation.robot_cell.RobotCell)."""
 
     def check_placement(
-        self, assembly: Assembly, part: int, placed: int, motion: Motion
+        self,
+        assembly: Assembly,
+        part: int,
+        placed: int,
+        motion: Motion,
+        rules: dict[str, bool] | None = None,
     ) -> bool: ...
 
 
 @dataclass(frozen=True)
 class Fixation:
-    """Fixation rule per part: profiles need a touching placed part, brackets both profiles."""
+    """Fixation rule per part: profiles need a touching placed part, brackets one profile."""
 
-    touch: tuple[int, ...]
-    """Per part, bitmask of the parts it touches."""
-    needs: tuple[int, ...]
+    touch: np.ndarray
+    """Per part, bitmask of the parts it touches (int64)."""
+    needs: np.ndarray
     """Per bracket, bitmask of the profiles it joins (0 for profiles)."""
-    is_profile: tuple[bool, ...]
+    is_profile: np.ndarray
 
     @classmethod
     def of(cls, assembly: Assembly, touch: np.ndarray) -> Fixation:
-        masks = tuple(int(sum(1 << j for j in np.flatnonzero(row))) for row in touch)
-        profiles = tuple(p.type.is_profile for p in assembly.parts)
-        profile_mask = sum(1 << i for i, is_p in enumerate(profiles) if is_p)
-        needs = tuple(
-            0 if is_p else m & profile_mask for m, is_p in zip(masks, profiles, strict=True)
+        masks = np.array(
+            [sum(1 << int(j) for j in np.flatnonzero(row)) for row in touch], dtype=np.int64
         )
+        profiles = np.array([p.type.is_profile for p in assembly.parts], dtype=bool)
+        profile_mask = sum(1 << i for i, is_p in enumerate(profiles) if is_p)
+        needs = np.where(profiles, 0, masks & profile_mask).astype(np.int64)
         return cls(masks, needs, profiles)
 
-    def holds(self, state: int, part: int) -> bool:
+    def holds(self, states: np.ndarray, part: int) -> np.ndarray:
+        """Vectorised over int64 `states` (scalars work too)."""
+        states = np.asarray(states, dtype=np.int64)
         if self.is_profile[part]:
-            return state == 0 or bool(state & self.touch[part])
-        need = self.needs[part]
-        return need.bit_count() >= 2 and state & need == need
-
-
-def _minimal(masks: list[int]) -> tuple[int, ...]:
-    """Blocker masks with supersets of another mask dropped (they never decide anything)."""
-    out: list[int] = []
-    for m in sorted(set(masks), key=lambda m: (m.bit_count(), m)):
-        if not any(o & m == o for o in out):
-            out.append(m)
-    return tuple(out)
+            return (states == 0) | ((states & self.touch[part]) != 0)
+        return (states & self.needs[part]) != 0
 
 
 @dataclass(frozen=True)
-class PlacementTable:
-    """The cached robot options of every part, reduced to blocker bitmasks."""
+class OptionTable:
+    """Every option of every part of one assembly, as arrays."""
 
-    fixation: Fixation
-    reachable: tuple[tuple[int, ...], ...]
-    """Per part, minimal blocker masks of its reachable options."""
-    clearance: tuple[tuple[int, ...], ...]
-    """Per part, minimal blocker masks of all options, reach ignored."""
+    part: np.ndarray
+    masks: np.ndarray
+    """(options × categories) int64 blocker masks, columns as `robot_cell.category`."""
+    reachable: np.ndarray
+    arm_clear: np.ndarray
+    is_profile: np.ndarray
+    touch: np.ndarray
+    parallel: np.ndarray
+    """Per part, bitmask of the other parts lying along the same axis."""
 
     @classmethod
     def build(
-        cls, assembly: Assembly, cell: Cell, motions: list[list[Motion]], touch: np.ndarray
-    ) -> PlacementTable:
-        reachable, clearance = [], []
-        for part in range(assembly.n_parts):
-            options = cell.placement_options(assembly, part, motions[part])
-            reachable.append(_minimal([o.blockers for o in options if o.reachable]))
-            clearance.append(_minimal([o.blockers for o in options]))
-        return cls(Fixation.of(assembly, touch), tuple(reachable), tuple(clearance))
+        cls, assembly: Assembly, options: list[list[PlacementOption]], fixation: Fixation
+    ) -> OptionTable:
+        flat = [(p, o) for p, opts in enumerate(options) for o in opts]
+        return cls(
+            part=np.array([p for p, _ in flat], dtype=int),
+            masks=np.array([o.masks for _, o in flat], dtype=np.int64).reshape(len(flat), -1),
+            reachable=np.array([o.reachable for _, o in flat], dtype=bool),
+            arm_clear=np.array([o.arm_clear for _, o in flat], dtype=bool),
+            is_profile=fixation.is_profile,
+            touch=fixation.touch,
+            parallel=np.array(
+                [
+                    sum(
+                        1 << j
+                        for j, q in enumerate(assembly.parts)
+                        if j != i and q.quarter_turns % 2 == p.quarter_turns % 2
+                    )
+                    for i, p in enumerate(assembly.parts)
+                ],
+                dtype=np.int64,
+            ),
+        )
 
-    def can_place(self, state: int, part: int) -> bool:
-        return self.fixation.holds(state, part) and any(not b & state for b in self.reachable[part])
+    def blockers(self, rules: Collection[str], relax: str | None = None) -> list[np.ndarray]:
+        """Per part, the minimal blocker masks of its usable options under `rules` (the active
+        ones), with mechanism `relax` lifted."""
+        cols = [
+            category(body, kind)
+            for body in BODIES
+            for kind in KINDS
+            if RULE_OF_BODY[body] in rules and (kind == "part" or "clamps" in rules)
+        ]
+        masks = self.masks.copy()
+        usable = np.ones(len(self.part), dtype=bool)
+        if "reach" in rules and relax != "reach":
+            usable &= self.reachable
+        if "arm_links" in rules and relax != "arm":
+            usable &= self.arm_clear
+        if relax is not None:
+            _relax(masks, relax, self)
+        combined = (
+            np.bitwise_or.reduce(masks[:, cols], axis=1) if cols else np.zeros(len(masks), np.int64)
+        )
+        n = len(self.is_profile)
+        return [_minimal(combined[usable & (self.part == p)]) for p in range(n)]
 
-    def can_place_ignoring_reach(self, state: int, part: int) -> bool:
-        return self.fixation.holds(state, part) and any(not b & state for b in self.clearance[part])
 
-    def nonlocal_block(self, truth: GroundTruth) -> bool:
-        """Some reachable state has a part stopped only by blockers it does not touch."""
-        for state, placeable in zip(truth.states.tolist(), truth.placeable.tolist(), strict=True):
-            for part, options in enumerate(self.reachable):
-                if state >> part & 1 or placeable >> part & 1 or not options:
-                    continue
-                if not self.fixation.holds(state, part):
-                    continue
-                local = state & self.fixation.touch[part]
-                if any(not b & local for b in options):
-                    return True
-        return False
+def _relax(masks: np.ndarray, mechanism: str, table: OptionTable) -> None:
+    """Lift one mechanism's blocking contributions from `masks` in place (docs/world.md)."""
+    part = table.part
+    held = category("held_part", "part")
+    gripper = [category("finger", "part"), category("palm", "part")]
+    if mechanism == "frame_closing":
+        masks[:, category("joint", "part")] = 0
+        masks[:, held] &= ~table.touch[part]
+    elif mechanism == "slide_corridor":
+        masks[:, held] &= table.touch[part]
+    elif mechanism in ("narrow_rails", "crowded_grasp", "bracket_corner"):
+        # Which blockers of a gripper belong to the mechanism: parallel profiles beside a
+        # profile, crossing profiles over it, anything involving a bracket.
+        brackets = np.int64(sum(1 << i for i, p in enumerate(table.is_profile) if not p))
+        same = table.parallel[part]
+        moving_profile = table.is_profile[part]
+        lift = {
+            "narrow_rails": np.where(moving_profile, same & ~brackets, 0),
+            "crowded_grasp": np.where(moving_profile, ~same & ~brackets, 0),
+            "bracket_corner": np.where(moving_profile, brackets, -1),
+        }[mechanism].astype(np.int64)
+        for c in gripper:
+            masks[:, c] &= ~lift
+    elif mechanism == "clamp":
+        for body in ("finger", "palm", "held_part"):
+            masks[:, category(body, "clamp")] = 0
+    elif mechanism == "arm":
+        for body in BODIES:
+            if body.startswith("arm_"):
+                masks[:, category(body, "part")] = 0
+                masks[:, category(body, "clamp")] = 0
+
+
+def _minimal(masks: np.ndarray) -> np.ndarray:
+    """Blocker masks with supersets of another mask dropped (they never decide anything)."""
+    out: list[int] = []
+    for m in sorted(set(masks.tolist()), key=lambda m: (m.bit_count(), m)):
+        if not any(o & m == o for o in out):
+            out.append(m)
+    return np.array(out, dtype=np.int64)
+
+
+def rule_check(
+    fixation: Fixation, blockers: list[np.ndarray], fixation_on: bool = True
+) -> Callable[[np.ndarray, int], np.ndarray]:
+    """`can_place(states, part)` for `GroundTruth.explore_many`."""
+
+    def can_place(states: np.ndarray, part: int) -> np.ndarray:
+        masks = blockers[part]
+        if not len(masks):
+            return np.zeros(len(states), dtype=bool)
+        free = ((states[:, None] & masks[None, :]) == 0).any(axis=1)
+        return free & fixation.holds(states, part) if fixation_on else free
+
+    return can_place
+
+
+def explore(
+    n: int, fixation: Fixation, table: OptionTable, rules: Collection[str], relax: str | None = None
+) -> GroundTruth:
+    """Ground truth under the active `rules` (and mechanism `relax` lifted)."""
+    check = rule_check(fixation, table.blockers(rules, relax), "fixation" in rules)
+    return GroundTruth.explore_many(n, check, naive_checks=False)
+
+
+def nonlocal_block(truth: GroundTruth, fixation: Fixation, blockers: list[np.ndarray]) -> bool:
+    """Some reachable state has a part stopped only by blockers it does not touch."""
+    states, placeable = truth.states, truth.placeable
+    for part, masks in enumerate(blockers):
+        if not len(masks):
+            continue
+        bit = np.int64(1) << part
+        idle = ((states & bit) == 0) & ((placeable & bit) == 0) & fixation.holds(states, part)
+        if not idle.any():
+            continue
+        local = states[idle] & fixation.touch[part]
+        if ((local[:, None] & masks[None, :]) == 0).any():
+            return True
+    return False
 
 
 def label(
-    assembly: Assembly, cell: Cell, motions: list[list[Motion]], touch: np.ndarray
+    assembly: Assembly,
+    options: list[list[PlacementOption]],
+    touch: np.ndarray,
+    rules: Collection[str] = RULES,
 ) -> LabelledAssembly:
     """Ground truth and diagnostics of one assembly (see the module docstring for `info`)."""
-    table = PlacementTable.build(assembly, cell, motions, touch)
     n = assembly.n_parts
-    truth = GroundTruth.explore(n, table.can_place)
-    fixed = GroundTruth.explore(n, table.fixation.holds)
+    fixation = Fixation.of(assembly, touch)
+    table = OptionTable.build(assembly, options, fixation)
+    active = [r for r in RULES if r in rules]
+    check = rule_check(fixation, table.blockers(active), "fixation" in active)
+    truth = GroundTruth.explore_many(n, check)
+    fixed = GroundTruth.explore_many(n, fixation.holds, naive_checks=False)
+    decisive = [
+        r
+        for r in active
+        if not explore(n, fixation, table, [x for x in active if x != r]).same_orders(truth)
+    ]
     info: dict[str, Any] = {
         "cause": None,
+        "mechanisms": [],
+        "decisive_rules": decisive,
         "robot_pruned": False,
         "nonlocal_block": False,
         "orders": truth.n_orders(),
@@ -148,13 +255,16 @@ def label(
     }
     if truth.feasible:
         info["robot_pruned"] = info["orders"] < info["fixation_orders"]
-        info["nonlocal_block"] = table.nonlocal_block(truth)
-    elif not fixed.feasible:
+        info["nonlocal_block"] = nonlocal_block(truth, fixation, table.blockers(active))
+        return LabelledAssembly(assembly, truth, info)
+    if not fixed.feasible:
         info["cause"] = "other"
-    elif not GroundTruth.explore(n, table.can_place_ignoring_reach).feasible:
+    elif not explore(n, fixation, table, [r for r in active if r != "reach"]).feasible:
         info["cause"] = "collision"
     else:
         info["cause"] = "reach"
+    found = [m for m in MECHANISMS if explore(n, fixation, table, active, relax=m).feasible]
+    info["mechanisms"] = found or ["compound"]
     return LabelledAssembly(assembly, truth, info)
 
 
@@ -164,17 +274,20 @@ def replay(
     cell: Cell,
     motions: list[list[Motion]],
     touch: np.ndarray,
+    rules: Collection[str] = RULES,
 ) -> int | None:
     """Index of the first step of `order` that fails the uncached checks, None if all pass.
 
-    Each step asks the robot directly with only the already placed parts in the scene, so a
+    Each step asks the cell directly with only the already placed parts in the scene, so a
     disagreement with `label` exposes a wrong cache.
     """
     fixation = Fixation.of(assembly, touch)
+    switches = {r: r in rules for r in RULES}
     placed = 0
     for step, part in enumerate(order):
-        ok = fixation.holds(placed, part) and any(
-            cell.check_placement(assembly, part, placed, m) for m in motions[part]
+        fixed = not switches["fixation"] or bool(fixation.holds(np.int64(placed), part))
+        ok = fixed and any(
+            cell.check_placement(assembly, part, placed, m, switches) for m in motions[part]
         )
         if not ok:
             return step

@@ -1,12 +1,21 @@
-"""Random fixture-frame structures of aluminium profiles and angle brackets (issue 2, the world).
+"""Random fixture frames of aluminium profiles and angle brackets (docs/world.md, "Frames").
 
-A structure grows from one profile by joints that real frames use: T-joints (a profile's end
-against another's long side anywhere along it), L-corners (a profile capping another's end),
-end-to-end extensions, parallel rails (several T-stems off one bar at sampled gaps, some narrower
-than a gripper finger) and angle brackets in the inner corners of T and L joints. Every number
-comes from the `generator:` block of `grace/conf/simulator/dual_arm.yaml`. Parts are axis-aligned
-(`planar_pose`), never overlap, each touches the structure; the result is centred on the world
-origin and named part_1..part_N in `canonical_order` (SPEC §2).
+A frame grows from one profile by the motifs real fixture frames are made of:
+
+- `t_joint`: a stem whose end meets another profile's long side anywhere along it;
+- `cap`: a profile across a free end of another (an L corner when flush with its side, a T
+  otherwise); capping the far end of a stem starts a second bar parallel to the first;
+- `rung`: a profile spanning the gap between two parallel profiles that face each other at a
+  profile's length, both ends in T-slots: flush with their ends it closes a rectangle, set in it
+  adds a ladder rung (caps and rungs are flush with probability `flush_share`);
+- `comb`: a stem beside an existing stem on the same host, at a gap drawn from `gap_mm`;
+- angle brackets in free inner corners of T and L joints (`bracket_share`).
+
+Every contact between two profiles is a T-slot joint whose stem end lies fully on the host's
+side; a bracket touches exactly the two profiles of its corner along both legs. Why an order is
+infeasible follows from this geometry; no cause has a probability of its own. Every number comes
+from the `generator` config (`grace/conf/simulator/generator/frames.yaml`). The result is centred
+on the world origin and named part_1..part_N in `canonical_order` (docs/assembly-graph.md).
 """
 
 from __future__ import annotations
@@ -25,25 +34,11 @@ from grace.domain.assembly import (
     canonical_order,
     planar_pose,
 )
-from grace.simulation.joints import end_joints, parts_contact, parts_overlap
+from grace.errors import UserError
+from grace.simulation.cell_config import CONFIG_DIR, GeneratorConfig, check_generator, typed
+from grace.simulation.joints import axis_of, end_joints, parts_contact, parts_overlap
 
-CONFIG_FILE = "grace/conf/simulator/dual_arm.yaml"
 HALF = PROFILE_SECTION_MM / 2
-FIELDS = {
-    "profile_300_share",
-    "joint_weights",
-    "flush_corner_share",
-    "bracket_share",
-    "gap_mm",
-    "narrow_gap_share",
-    "narrow_same_length_share",
-    "position_grid_mm",
-    "work_area",
-    "max_attempts",
-    "max_restarts",
-}
-_AXES = {0: np.array([0.0, 1.0]), 1: np.array([1.0, 0.0])}
-"""World direction of a profile's length for quarter_turns 0 and 1 (poses 2, 3 are equivalent)."""
 
 # Quarter turns of a bracket whose two legs run along the given pair of world directions.
 _BRACKET_TURNS = {
@@ -52,71 +47,51 @@ _BRACKET_TURNS = {
     frozenset({(-1, 0), (0, -1)}): 2,
     frozenset({(0, -1), (1, 0)}): 3,
 }
+_LENGTHS = (PartType.PROFILE_200, PartType.PROFILE_300)
 
 
 class StructureGenerator:
-    """Grows connected profile frames; `generate(n, rng)` is deterministic in `rng`'s state.
+    """Grows connected profile frames; `generate(n, rng)` is deterministic in `rng`'s state."""
 
-    `finger_mm` is the width a gripper finger needs beside a part (from the cell config): rail
-    gaps are drawn narrower than it with probability `narrow_gap_share`, wider otherwise.
-    """
-
-    def __init__(self, finger_mm: float, tolerance: float = 0.5, **cfg: Any) -> None:
-        for name in sorted(FIELDS ^ set(cfg)):
-            problem, fix = ("missing", "add it") if name in FIELDS else ("unknown", "remove it")
-            raise ValueError(f"{CONFIG_FILE}: {problem} field 'generator.{name}'; {fix}")
-        lo, hi = cfg["gap_mm"]
-        if not lo < finger_mm < hi:
-            raise ValueError(
-                f"{CONFIG_FILE}: field 'generator.gap_mm' = [{lo}, {hi}] must straddle the "
-                f"finger size {finger_mm} mm so rails fall on both sides of it; widen it"
-            )
-        self.cfg = cfg
-        self.finger_mm = float(finger_mm)
+    def __init__(self, tolerance: float = 0.5, **cfg: Any) -> None:
+        self.cfg = typed(GeneratorConfig, cfg, "generator")
         self.tolerance = tolerance
-        self.actions: dict[str, Callable[[list[Part], np.random.Generator], Part | None]] = {
+        self.motifs: dict[str, Callable[[list[Part], np.random.Generator], Part | None]] = {
             "t_joint": self._t_joint,
             "cap": self._cap,
-            "end_to_end": self._end_to_end,
-            "rail": self._rail,
+            "rung": self._rung,
+            "comb": self._comb,
         }
-        unknown = set(cfg["joint_weights"]) - set(self.actions)
-        if unknown:
-            raise ValueError(
-                f"{CONFIG_FILE}: field 'generator.joint_weights' has unknown kinds "
-                f"{sorted(unknown)}; use {sorted(self.actions)}"
-            )
-        weights = np.array([float(cfg["joint_weights"].get(k, 0.0)) for k in self.actions])
+        check_generator(self.cfg, set(self.motifs))
+        weights = np.array([float(self.cfg.motif_weights.get(k, 0.0)) for k in self.motifs])
         self.weights = weights / weights.sum()
 
     def generate(self, n_parts: int, rng: np.random.Generator) -> Assembly:
-        """A connected structure of `n_parts` parts, centred and canonically named."""
+        """A connected frame of `n_parts` parts, centred and canonically named."""
         if n_parts < 1:
-            raise ValueError(f"generate: n_parts must be ≥ 1, got {n_parts}")
-        for _ in range(int(self.cfg["max_restarts"])):
+            raise UserError(f"generate: n_parts must be ≥ 1, got {n_parts}")
+        for _ in range(self.cfg.max_restarts):
             parts = self._grow(n_parts, rng)
             if parts is not None:
                 return self._finish(parts)
-        raise RuntimeError(
-            f"{CONFIG_FILE}: no {n_parts}-part structure fits field 'generator.work_area' after "
-            f"{self.cfg['max_restarts']} restarts; enlarge work_area or max_attempts"
+        raise UserError(
+            f"{CONFIG_DIR}/generator: no {n_parts}-part frame fits field 'work_area' after "
+            f"{self.cfg.max_restarts} restarts; enlarge work_area or max_attempts"
         )
 
     def _grow(self, n_parts: int, rng: np.random.Generator) -> list[Part] | None:
         parts = [self._profile(rng, 0.0, 0.0, int(rng.integers(2)))]
-        attempts = 0
-        while len(parts) < n_parts:
-            attempts += 1
-            if attempts > int(self.cfg["max_attempts"]):
-                return None
-            if rng.random() < float(self.cfg["bracket_share"]):
+        for _ in range(self.cfg.max_attempts):
+            if len(parts) == n_parts:
+                return parts
+            if rng.random() < self.cfg.bracket_share:
                 part = self._bracket(parts, rng)
             else:
-                kind = list(self.actions)[rng.choice(len(self.actions), p=self.weights)]
-                part = self.actions[kind](parts, rng)
+                kind = list(self.motifs)[rng.choice(len(self.motifs), p=self.weights)]
+                part = self.motifs[kind](parts, rng)
             if part is not None and self._fits(parts, part):
                 parts.append(part)
-        return parts
+        return parts if len(parts) == n_parts else None
 
     def _finish(self, parts: list[Part]) -> Assembly:
         lo, hi = self._extent(parts)
@@ -135,114 +110,121 @@ class StructureGenerator:
         return boxes[:, :2].min(axis=0), boxes[:, 2:].max(axis=0)
 
     def _fits(self, parts: list[Part], new: Part) -> bool:
-        if any(parts_overlap(new, p, self.tolerance) for p in parts):
+        tol = self.tolerance
+        if any(parts_overlap(new, p, tol) for p in parts):
             return False
-        contacts = [p for p in parts if parts_contact(new, p, self.tolerance) > 0]
+        contacts = [p for p in parts if parts_contact(new, p, tol) > 0]
         if not contacts:
             return False
-        # A bracket joins exactly the two profiles of its corner and touches nothing else.
-        if new.type.is_profile and any(not p.type.is_profile for p in contacts):
-            return False
-        if not new.type.is_profile and len(contacts) != 2:
+        if new.type.is_profile:
+            # Profiles meet only in T-slot joints with the stem's end fully on the host's side.
+            if any(not p.type.is_profile or not end_joints([p, new], tol) for p in contacts):
+                return False
+        elif len(contacts) != 2:
             return False
         lo, hi = self._extent([*parts, new])
-        width, depth = self.cfg["work_area"]
+        width, depth = self.cfg.work_area
         return bool(hi[0] - lo[0] <= width and hi[1] - lo[1] <= depth)
 
-    def _profile(self, rng: np.random.Generator, x: float, y: float, axis: int) -> Part:
-        long = rng.random() < float(self.cfg["profile_300_share"])
-        kind = PartType.PROFILE_300 if long else PartType.PROFILE_200
-        return Part("new", kind, planar_pose(x, y, axis))
+    def _kind(self, rng: np.random.Generator) -> PartType:
+        return _LENGTHS[int(rng.random() < self.cfg.profile_300_share)]
 
-    def _along(self, rng: np.random.Generator, half_span: float) -> float:
-        """A grid position in [−half_span, half_span] (the `position_grid_mm` raster)."""
-        grid = float(self.cfg["position_grid_mm"])
+    def _profile(self, rng: np.random.Generator, x: float, y: float, axis: int) -> Part:
+        return Part("new", self._kind(rng), planar_pose(x, y, axis))
+
+    def _grid(self, rng: np.random.Generator, half_span: float) -> float:
+        """A position in [−half_span, half_span] on the `position_grid_mm` raster."""
+        grid = self.cfg.position_grid_mm
         steps = int(half_span // grid)
         return float(rng.integers(-steps, steps + 1)) * grid
 
     @staticmethod
-    def _axis(part: Part) -> int:
+    def _turns(part: Part) -> int:
         return part.quarter_turns % 2
 
-    def _host(self, parts: list[Part], rng: np.random.Generator) -> Part:
+    def _pick(self, parts: list[Part], rng: np.random.Generator) -> Part:
         profiles = [p for p in parts if p.type.is_profile]
         return profiles[rng.integers(len(profiles))]
 
-    def _stem(
-        self,
-        host: Part,
-        side: int,
-        along: float,
-        rng: np.random.Generator,
-        kind: PartType | None = None,
-    ) -> Part:
-        """A profile (of `kind`, random if None) on `host`'s long side `side` (±1), `along` mm
-        from its centre."""
-        axis = self._axis(host)
-        u, n = _AXES[axis], _AXES[1 - axis]
-        kind = kind or self._profile(rng, 0.0, 0.0, 1 - axis).type
+    def _stem(self, host: Part, side: int, along: float, kind: PartType) -> Part:
+        """A profile of `kind` standing on `host`'s long side `side` (±1), `along` mm from its
+        centre."""
+        u = axis_of(host)
+        n = np.array([-u[1], u[0]])
         centre = np.asarray(host.xy) + u * along + n * side * (HALF + kind.length / 2)
-        return Part("new", kind, planar_pose(centre[0], centre[1], 1 - axis))
+        return Part("new", kind, planar_pose(centre[0], centre[1], 1 - self._turns(host)))
 
     def _t_joint(self, parts: list[Part], rng: np.random.Generator) -> Part | None:
-        host = self._host(parts, rng)
-        along = self._along(rng, host.type.length / 2 - HALF)
-        return self._stem(host, int(rng.choice([-1, 1])), along, rng)
+        host = self._pick(parts, rng)
+        along = self._grid(rng, host.type.length / 2 - HALF)
+        return self._stem(host, int(rng.choice([-1, 1])), along, self._kind(rng))
 
     def _cap(self, parts: list[Part], rng: np.random.Generator) -> Part | None:
-        """A new profile across `host`'s end: an L-corner when flush, a T when further along."""
-        host = self._host(parts, rng)
-        axis = self._axis(host)
-        u, n = _AXES[axis], _AXES[1 - axis]
+        """A new profile across a free end of `stem`: flush (L corner) or further along (T)."""
+        stem = self._pick(parts, rng)
+        u = axis_of(stem)
         end = int(rng.choice([-1, 1]))
-        cap = self._profile(rng, 0.0, 0.0, 1 - axis)
-        half_span = cap.type.length / 2 - HALF
-        if rng.random() < float(self.cfg["flush_corner_share"]):
-            along = half_span * int(rng.choice([-1, 1]))
+        kind = self._kind(rng)
+        half_span = kind.length / 2 - HALF
+        flush = rng.random() < self.cfg.flush_share
+        along = half_span * int(rng.choice([-1, 1])) if flush else self._grid(rng, half_span)
+        centre = np.asarray(stem.xy) + u * end * (stem.type.length / 2 + HALF)
+        centre = centre + np.array([-u[1], u[0]]) * along
+        return Part("new", kind, planar_pose(centre[0], centre[1], 1 - self._turns(stem)))
+
+    def _rung(self, parts: list[Part], rng: np.random.Generator) -> Part | None:
+        """A profile spanning two parallel profiles that face each other at a profile length."""
+        spans = []
+        profiles = [p for p in parts if p.type.is_profile]
+        for i, a in enumerate(profiles):
+            for b in profiles[i + 1 :]:
+                if self._turns(a) != self._turns(b):
+                    continue
+                u = axis_of(a)
+                n = np.array([-u[1], u[0]])
+                gap = abs(float((np.asarray(b.xy) - np.asarray(a.xy)) @ n)) - 2 * HALF
+                kind = next((k for k in _LENGTHS if abs(k.length - gap) < 0.5), None)
+                if kind is None:
+                    continue
+                ca, cb = float(np.asarray(a.xy) @ u), float(np.asarray(b.xy) @ u)
+                lo = max(ca - a.type.length / 2, cb - b.type.length / 2)
+                hi = min(ca + a.type.length / 2, cb + b.type.length / 2)
+                if hi - lo >= 2 * HALF:
+                    spans.append((a, b, kind, lo + HALF, hi - HALF))
+        if not spans:
+            return None
+        a, b, kind, lo, hi = spans[rng.integers(len(spans))]
+        grid = self.cfg.position_grid_mm
+        if rng.random() < self.cfg.flush_share:  # flush with the bars' ends: closed corners
+            at = float(rng.choice([lo, hi]))
         else:
-            along = self._along(rng, half_span)
-        centre = np.asarray(host.xy) + u * end * (host.type.length / 2 + HALF) + n * along
-        return Part("new", cap.type, planar_pose(centre[0], centre[1], 1 - axis))
+            at = lo + float(rng.integers(0, int((hi - lo) // grid) + 1)) * grid
+        u = axis_of(a)
+        n = np.array([-u[1], u[0]])
+        middle = (np.asarray(a.xy) @ n + np.asarray(b.xy) @ n) / 2
+        centre = u * at + n * middle
+        return Part("new", kind, planar_pose(centre[0], centre[1], 1 - self._turns(a)))
 
-    def _end_to_end(self, parts: list[Part], rng: np.random.Generator) -> Part | None:
-        host = self._host(parts, rng)
-        axis = self._axis(host)
-        new = self._profile(rng, 0.0, 0.0, axis)
-        end = int(rng.choice([-1, 1]))
-        centre = np.asarray(host.xy) + _AXES[axis] * end * (host.type.length + new.type.length) / 2
-        return Part("new", new.type, planar_pose(centre[0], centre[1], axis))
-
-    def _rail(self, parts: list[Part], rng: np.random.Generator) -> Part | None:
-        """A stem parallel to an existing T-stem off the same bar, at a sampled gap beside it."""
+    def _comb(self, parts: list[Part], rng: np.random.Generator) -> Part | None:
+        """A stem beside an existing stem of the same host, a drawn gap away."""
         joints = end_joints(parts, self.tolerance)
         if not joints:
             return None
         joint = joints[rng.integers(len(joints))]
-        stem, host = parts[joint.part], parts[joint.host]
-        u = _AXES[self._axis(host)]
-        along = float((np.asarray(stem.xy) - np.asarray(host.xy)) @ u)
-        side = -int(np.sign(np.asarray(joint.direction) @ _AXES[1 - self._axis(host)]))
-        lo, hi = self.cfg["gap_mm"]
-        kind = None
-        if rng.random() < float(self.cfg["narrow_gap_share"]):
-            gap = int(rng.integers(int(lo), int(self.finger_mm)))
-            # Two equally long stems a finger-gap apart block each other both ways.
-            if rng.random() >= float(self.cfg["narrow_same_length_share"]):
-                other = {PartType.PROFILE_200: PartType.PROFILE_300}
-                kind = other.get(stem.type, PartType.PROFILE_200)
-            else:
-                kind = stem.type
-        else:
-            gap = int(rng.integers(int(self.finger_mm) + 1, int(hi) + 1))
-        step = PROFILE_SECTION_MM + gap
-        return self._stem(host, side, along + step * int(rng.choice([-1, 1])), rng, kind)
+        host = parts[joint.host]
+        u = axis_of(host)
+        n = np.array([-u[1], u[0]])
+        side = -int(np.sign(np.asarray(joint.direction) @ n))
+        lo, hi = self.cfg.gap_mm
+        gap = int(rng.integers(int(lo), int(hi) + 1))
+        step = (PROFILE_SECTION_MM + gap) * int(rng.choice([-1, 1]))
+        return self._stem(host, side, joint.along + step, self._kind(rng))
 
     def _bracket(self, parts: list[Part], rng: np.random.Generator) -> Part | None:
-        """An angle bracket in a free inner corner of a T or L joint (it needs both profiles)."""
-        joints = end_joints(parts, self.tolerance)
+        """An angle bracket in a free inner corner of a T or L joint, fastened to both."""
         corners = []
-        for j in joints:
-            stem, host = parts[j.part], parts[j.host]
+        for j in end_joints(parts, self.tolerance):
+            stem = parts[j.part]
             d = np.asarray(j.direction, dtype=float)
             t = np.array([-d[1], d[0]])
             face = np.asarray(stem.xy) + d * stem.type.length / 2
@@ -250,12 +232,13 @@ class StructureGenerator:
                 corner = face + t * s * HALF
                 legs = frozenset({tuple(int(v) for v in t * s), tuple(int(v) for v in -d)})
                 pose = planar_pose(corner[0], corner[1], _BRACKET_TURNS[legs])
-                corners.append((Part("new", PartType.BRACKET, pose), stem, host))
+                corners.append((Part("new", PartType.BRACKET, pose), stem, parts[j.host]))
         rng.shuffle(corners)
+        full = BRACKET_LEG_MM - self.tolerance
         for bracket, stem, host in corners:
             if (
-                parts_contact(bracket, stem, self.tolerance) >= BRACKET_LEG_MM - self.tolerance
-                and parts_contact(bracket, host, self.tolerance) >= BRACKET_LEG_MM - self.tolerance
+                parts_contact(bracket, stem, self.tolerance) >= full
+                and parts_contact(bracket, host, self.tolerance) >= full
                 and not any(parts_overlap(bracket, p, self.tolerance) for p in parts)
             ):
                 return bracket

@@ -1,11 +1,12 @@
-"""Closed-form inverse kinematics of the KUKA LBR iiwa 14 R820 for top-down grasps (SPEC §10).
+"""Closed-form inverse kinematics of the KUKA LBR iiwa 14 R820 for top-down grasps (docs/world.md).
 
 The iiwa is a spherical shoulder (A1, A2), an elbow (A4) and a spherical wrist (A5–A7), with the
 redundant joint A3 in between. Fixing A3 = 0 leaves a 6-DoF arm that decouples: A1, A2, A4 put
 the wrist centre in place (a planar 2R problem in the vertical plane of A1), A5–A7 then turn the
 flange to the wanted orientation (ZYZ Euler angles). This is orders of magnitude faster than
-iterating damped least squares on Jacobians, which the ground-truth budget (issue 2: an A7
-assembly in ≤ 50 ms) needs. Axes are z, y, z, y, z, y, z; in the zero pose the arm stands upright.
+iterating damped least squares on Jacobians, which the ground-truth budget (an A7 assembly in
+≤ 50 ms, docs/world.md) needs. Axes are z, y, z, y, z, y, z; in the zero pose the arm stands
+upright.
 
 All lengths here are metres; the world frame is the work-area centre on the table, z up.
 """
@@ -63,7 +64,9 @@ class IiwaArm:
         lo = np.sqrt(l2**2 + l3**2 - 2 * l2 * l3 * np.cos(np.pi - self.limits[3]))
         return (dist <= l2 + l3) & (dist >= lo)
 
-    def top_down_ik(self, tcp: np.ndarray, yaw: float) -> tuple[np.ndarray, np.ndarray]:
+    def top_down_ik(
+        self, tcp: np.ndarray, yaw: float | np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
         """All A3 = 0 solutions putting the TCP at each row of `tcp` (K×3, world m), tool down.
 
         Returns `q` (8×K×7, rad) and `ok` (8×K): solution exists and is within joint limits.
@@ -95,3 +98,23 @@ class IiwaArm:
         q = np.stack(np.broadcast_arrays(q1, q2, np.zeros_like(q1), q4, q5, q6, q7), axis=-1)
         ok = exists & np.all(np.abs(q) <= self.limits, axis=-1)
         return q, ok
+
+    def link_points(self, q: np.ndarray) -> np.ndarray:
+        """Joint centres (…×5×3, m) of the configurations `q` (…×7, A3 = 0, tool pointing down):
+        A1 foot, shoulder, elbow, wrist centre, flange. Consecutive pairs are the four link
+        capsules (column, upper arm, forearm, wrist) of the MuJoCo model."""
+        q = np.asarray(q, dtype=float)
+        l1, l2, l3, l4 = self.lengths
+        heading = self.base_yaw + q[..., 0]
+        radial = np.stack([np.cos(heading), np.sin(heading)], axis=-1)
+
+        def towards(angle: np.ndarray, length: float) -> np.ndarray:
+            flat = radial * (length * np.sin(angle))[..., None]
+            return np.concatenate([flat, (length * np.cos(angle))[..., None]], axis=-1)
+
+        foot = np.broadcast_to(self.base, (*q.shape[:-1], 3))
+        shoulder = foot + np.array([0.0, 0.0, l1])
+        elbow = shoulder + towards(q[..., 1], l2)
+        wrist = elbow + towards(q[..., 1] + q[..., 3], l3)
+        flange = wrist - np.array([0.0, 0.0, l4])
+        return np.stack([foot, shoulder, elbow, wrist, flange], axis=-2)

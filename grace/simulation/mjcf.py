@@ -1,10 +1,12 @@
-"""The cell's MuJoCo model, built once per cell config (issue 2).
+"""The cell's MuJoCo model, built once per cell config (docs/world.md, "The cell").
 
-One compiled model serves every assembly: parts are a pool of box slots in the world body, and the
-swept gripper and held part a pool of boxes in one `sweep` body; queries move and resize them
+One compiled model serves every assembly: parts and their clamps are a pool of box slots in the
+world body, and the tool (two fingers, the gripper body and the held part) a pool of boxes in one
+`tool` body that three slide joints carry along a motion; queries move and resize them
 (`model.geom_pos/size`) instead of recompiling XML. Collision filtering via contype/conaffinity
-tests only {arm links, swept boxes} against {part slots, table}, plus arm self-collision of
-non-adjacent links (adjacent links are parent and child and filtered by MuJoCo).
+tests {arm links, tool} against {part slots, table} (the tool skips the table: a held part rests
+on it), plus self-collision of an arm's non-adjacent links (adjacent ones are parent and child and
+filtered by MuJoCo). The arms' own gripper geoms are drawn only; the tool boxes stand for them.
 """
 
 from __future__ import annotations
@@ -14,9 +16,11 @@ import numpy as np
 from grace.simulation.cell_config import CellConfig
 
 MM = 1e-3
-PART_BIT, TABLE_BIT, SWEEP_BIT = 1, 2, 4
-BOXES_PER_SEGMENT = 5
-"""Held part (up to two boxes for a bracket) and gripper (two fingers, palm) per swept segment."""
+PART_BIT, TABLE_BIT, TOOL_BIT = 1, 2, 4
+SLOTS_PER_PART = 4
+"""A part's boxes (two for a bracket) and its clamp's (body and arm)."""
+TOOL_BOXES = ("finger0", "finger1", "palm", "held0", "held1")
+LINKS = ("column", "upper", "forearm", "wrist")
 PARK = 100.0
 """Unused slots wait this far (m) from the cell, each at its own spot."""
 
@@ -27,11 +31,7 @@ def arm_bit(arm: int) -> int:
 
 
 def part_slot_count(cfg: CellConfig) -> int:
-    return 2 * cfg.max_parts
-
-
-def sweep_slot_count(cfg: CellConfig) -> int:
-    return BOXES_PER_SEGMENT * cfg.max_segments
+    return SLOTS_PER_PART * cfg.max_parts
 
 
 def park_position(kind: int, index: int) -> np.ndarray:
@@ -57,7 +57,7 @@ def _arm(cfg: CellConfig, arm: int) -> str:
     bit = arm_bit(arm)
     g = cfg.gripper
     tool = (g.palm_height + g.finger_length) * MM
-    span = (g.max_opening + 2 * g.finger_thickness) * MM / 2
+    palm = [g.palm_width * MM / 2, g.palm_depth * MM / 2, g.palm_height * MM / 2]
     finger = [g.finger_thickness * MM / 2, g.finger_width * MM / 2, g.finger_length * MM / 2]
     off = (g.max_opening + g.finger_thickness) * MM / 2
     fz = l4 + g.palm_height * MM + finger[2]
@@ -75,6 +75,7 @@ def _arm(cfg: CellConfig, arm: int) -> str:
         )
 
     hits = PART_BIT | TABLE_BIT | bit
+    # In a top-down grasp the last body's +z points down: the gripper hangs at +z below the flange.
     return f"""
     <body name="arm{arm}_base" pos="{_vec(np.array([x, y, z]) * MM)}"
           euler="0 0 {np.radians(yaw):.9g}">
@@ -92,13 +93,12 @@ def _arm(cfg: CellConfig, arm: int) -> str:
             <body name="arm{arm}_l4" pos="0 0 {l3:.9g}">
               {joint(6, "0 1 0")}{joint(7, "0 0 1")}
               {link("wrist", l4, r[3], hits)}
-              <geom type="box" size="{span:.9g} {finger[1]:.9g} {g.palm_height * MM / 2:.9g}"
-                    pos="0 0 {l4 + g.palm_height * MM / 2:.9g}" contype="0" conaffinity="0"
-                    rgba=".2 .2 .2 1"/>
-              <geom type="box" size="{_vec(finger)}" pos="{off:.9g} 0 {fz:.9g}" contype="0"
-                    conaffinity="0" rgba=".2 .2 .2 1"/>
-              <geom type="box" size="{_vec(finger)}" pos="{-off:.9g} 0 {fz:.9g}" contype="0"
-                    conaffinity="0" rgba=".2 .2 .2 1"/>
+              <geom name="arm{arm}_palm" type="box" size="{_vec(palm)}"
+                    pos="0 0 {l4 + palm[2]:.9g}" contype="0" conaffinity="0" rgba=".2 .2 .2 1"/>
+              <geom name="arm{arm}_finger0" type="box" size="{_vec(finger)}"
+                    pos="{off:.9g} 0 {fz:.9g}" contype="0" conaffinity="0" rgba=".2 .2 .2 1"/>
+              <geom name="arm{arm}_finger1" type="box" size="{_vec(finger)}"
+                    pos="{-off:.9g} 0 {fz:.9g}" contype="0" conaffinity="0" rgba=".2 .2 .2 1"/>
               <site name="arm{arm}_tcp" pos="0 0 {l4 + tool:.9g}" size="0.005"/>
             </body>
           </body>
@@ -108,18 +108,18 @@ def _arm(cfg: CellConfig, arm: int) -> str:
 
 
 def build_cell_xml(cfg: CellConfig) -> str:
-    """MJCF of the table, the part and sweep slot pools and the arms, in metres."""
+    """MJCF of the table, the part slot pool, the tool and the arms, in metres."""
     sx, sy, sz = (v * MM for v in cfg.table.size)
     parts = "\n    ".join(
-        _box(f"part{i}", park_position(0, i), PART_BIT, 0, ".6 .6 .7 1")
+        _box(f"slot{i}", park_position(0, i), PART_BIT, 0, ".6 .6 .7 1")
         for i in range(part_slot_count(cfg))
     )
-    sweeps = "\n      ".join(
-        _box(f"sweep{i}", park_position(1, i), SWEEP_BIT, PART_BIT, ".2 .7 .2 .4")
-        for i in range(sweep_slot_count(cfg))
+    tool = "\n      ".join(
+        _box(f"tool_{name}", park_position(1, i), TOOL_BIT, PART_BIT, ".2 .7 .2 .5")
+        for i, name in enumerate(TOOL_BOXES)
     )
     arms = "".join(_arm(cfg, a) for a in range(len(cfg.bases)))
-    return f"""<mujoco model="iiwa14_dual_cell">
+    return f"""<mujoco model="iiwa14_cell">
   <compiler angle="radian"/>
   <option gravity="0 0 0">
     <!-- Slots move at run time, so the compile-time bounding-volume trees would be stale. -->
@@ -130,9 +130,11 @@ def build_cell_xml(cfg: CellConfig) -> str:
     <geom name="table" type="box" size="{sx / 2:.9g} {sy / 2:.9g} {sz / 2:.9g}"
           pos="0 0 {-sz / 2:.9g}" contype="{TABLE_BIT}" conaffinity="0" rgba=".8 .75 .65 1"/>
     {parts}
-    <body name="sweep">
-      <joint name="sweep" type="slide" axis="0 0 1"/>
-      {sweeps}
+    <body name="tool">
+      <joint name="tool_x" type="slide" axis="1 0 0"/>
+      <joint name="tool_y" type="slide" axis="0 1 0"/>
+      <joint name="tool_z" type="slide" axis="0 0 1"/>
+      {tool}
     </body>{arms}
   </worldbody>
 </mujoco>

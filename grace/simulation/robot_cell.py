@@ -1,28 +1,39 @@
-"""The dual-arm robot cell: reach and clearance of one placement (issue 2, rules 1 and 2).
+"""The robot cell: what stands in the way of one placement (docs/world.md, "The cell").
 
-A placement option is (arm, grasp, motion). Its arm is reachable if the closed-form IK
-(`kinematics.IiwaArm`) holds the grasp at every TCP sample along the motion within joint limits,
-with the arm's links free of the table and of each other. Its blockers are the other parts that the
-swept fingers, palm and held part (`clearance.swept_boxes`) or the arm links at those samples
-penetrate deeper than the touching tolerance, found with MuJoCo's collision detection.
+A placement option is (arm, IK branch, grasp, motion). It is `reachable` if the closed-form IK
+(`kinematics.IiwaArm`) holds the grasp at every TCP sample along the motion within the joint
+limits, `arm_clear` if the arm's links then stay clear of the table and of each other. Its
+blocker masks say which other parts stop it, one mask per (robot body, obstacle kind):
 
-`placement_options` puts every other part of the assembly in the scene at once and attributes each
-contact to its part, so one query per option yields the blocker set for every state: placing the
-part is collision-free in state S iff `blockers & S == 0`. `check_placement` is the uncached
-reference that builds the scene of one state.
+- bodies: the motion's T-slot joints (`joint`), the two fingers, the palm (gripper body), the
+  held part, and the four arm links (column, upper arm, forearm, wrist);
+- obstacle kinds: the part itself, or its clamp (`clamps.clamp_boxes`).
+
+The fingers, palm and held part are world-aligned boxes moving along world axes, so the volume
+each sweeps along a motion segment is exactly the box spanning its start and end copies; their
+contacts are box overlaps. The arm links are capsules in arbitrary poses: a box test on their
+bounds picks the samples where they may touch something, and MuJoCo's collision detection
+decides those. `options` puts every part of the assembly into the scene at once and attributes
+each contact to its owner, so one query per option gives the blockers for every state: the
+option is free in state S iff `blockers & S == 0`. `check_placement` is the uncached reference:
+only the parts of one state in MuJoCo, tool and arm sampled every few millimetres.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
 
 import mujoco
 import numpy as np
 
 from grace.domain.assembly import Assembly, mask_to_parts
 from grace.domain.motion import Motion
+from grace.errors import UserError
 from grace.simulation import mjcf
-from grace.simulation.cell_config import CONFIG_FILE, CellConfig
+from grace.simulation.cell_config import CONFIG_DIR, RULES, CellConfig, check_cell, typed
+from grace.simulation.clamps import clamp_boxes
 from grace.simulation.clearance import (
     Grasp,
     grasp_candidates,
@@ -32,34 +43,94 @@ from grace.simulation.clearance import (
 )
 from grace.simulation.kinematics import IiwaArm
 
+BODIES = ("joint", "finger", "palm", "held_part", *(f"arm_{link}" for link in mjcf.LINKS))
+KINDS = ("part", "clamp")
+RULE_OF_BODY = {
+    "joint": "joints",
+    "finger": "fingers",
+    "palm": "palm",
+    "held_part": "held_part",
+    **{f"arm_{link}": "arm_links" for link in mjcf.LINKS},
+}
+N_CATEGORIES = len(BODIES) * len(KINDS)
+_FINGER, _PALM, _HELD = 1, 2, 3
+_ARM0 = 4
+REFERENCE_STEP_MM = 4.0
+"""TCP step of the reference check; thinner than any part (a bracket wall is 8 mm)."""
 _PARKED_HALF = 1e-3
-"""Half size (m) of a parked slot box."""
+
+
+def category(body: str, kind: str) -> int:
+    """Column of (body, obstacle kind) in `PlacementOption.masks`."""
+    return BODIES.index(body) * len(KINDS) + KINDS.index(kind)
 
 
 @dataclass(frozen=True)
 class PlacementOption:
-    """One (arm, grasp, motion) way to place a part; indices into the arms, the part's grasp
-    candidates and the motions passed in.
-
-    `blockers` is the bitmask of other parts penetrated along the motion. For an unreachable
-    option it covers the swept gripper and held part only (there is no arm pose to test).
-    """
+    """One way to place a part; `arm` = −1 in a cell without robot, `branch` = −1 if no IK
+    branch reaches. `masks[category(body, kind)]` is the bitmask of parts whose body or clamp
+    that robot body would penetrate (for an unreachable option only the tool and the joint)."""
 
     arm: int
+    branch: int
     grasp: int
     motion: int
     reachable: bool
-    blockers: int
+    arm_clear: bool
+    masks: tuple[int, ...]
+
+    @property
+    def blockers(self) -> int:
+        out = 0
+        for m in self.masks:
+            out |= m
+        return out
+
+
+@dataclass
+class Scene:
+    """One assembly's obstacles: every part's boxes and its clamp's, with owner and kind."""
+
+    assembly: Assembly
+    clamps: list[np.ndarray]
+    lo: np.ndarray
+    hi: np.ndarray
+    owner: np.ndarray
+    kind: np.ndarray
+    bits: np.ndarray = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.bits = np.left_shift(np.int64(1), self.owner.astype(np.int64))
+
+    def boxes_of(self, parts: list[int], clamps: bool = True) -> np.ndarray:
+        """World boxes (k×2×3, mm) of `parts` and, if asked, their clamps."""
+        keep = np.isin(self.owner, parts) & ((self.kind == 0) | clamps)
+        return np.stack([self.lo[keep], self.hi[keep]], axis=1)
+
+
+@dataclass(frozen=True)
+class CellPose:
+    """The cell drawn at one step: what `RobotCell.pose` returns (docs/world.md, "Explain")."""
+
+    joint_angles: dict[int, np.ndarray]
+    """Per arm, A1…A7 in radians (the arm that places at its final pose, the others at home)."""
+    bodies: dict[str, tuple[np.ndarray, np.ndarray]]
+    """MuJoCo body name → (position in mm, 3×3 rotation) in the world frame."""
+    tool: np.ndarray
+    """Fingers, palm and held part at the final pose: k×2×3 world boxes in mm."""
+    parts: dict[int, np.ndarray]
+    """Placed part index (the placed part included) → its boxes and its clamp's, k×2×3 mm."""
 
 
 class RobotCell:
-    """Two iiwa arms with parallel grippers beside a table, compiled once into MuJoCo."""
+    """iiwa arms (none, one or two) with parallel grippers over a fixture table, in MuJoCo."""
 
-    def __init__(self, **cell_cfg) -> None:
-        self.config = CellConfig.parse(cell_cfg)
-        self.model = mujoco.MjModel.from_xml_string(mjcf.build_cell_xml(self.config))
-        self.data = mujoco.MjData(self.model)
+    def __init__(self, **cell_cfg: Any) -> None:
+        self.config = typed(CellConfig, cell_cfg, "cell")
+        check_cell(self.config)
         cfg = self.config
+        self.model = mujoco.MjModel.from_xml_string(mjcf.build_cell_xml(cfg))
+        self.data = mujoco.MjData(self.model)
         tool = (cfg.gripper.palm_height + cfg.gripper.finger_length) * mjcf.MM
         self.arms = [
             IiwaArm(
@@ -71,31 +142,33 @@ class RobotCell:
             )
             for base in cfg.bases
         ]
-        name = self.model.geom
-        self._part_geoms = np.array([name(f"part{i}").id for i in range(mjcf.part_slot_count(cfg))])
-        self._sweep_geoms = np.array(
-            [name(f"sweep{i}").id for i in range(mjcf.sweep_slot_count(cfg))]
-        )
+        geom = self.model.geom
+        self._slots = np.array([geom(f"slot{i}").id for i in range(mjcf.part_slot_count(cfg))])
+        self._tool = np.array([geom(f"tool_{name}").id for name in mjcf.TOOL_BOXES])
+        self._tool_qpos = np.array([self.model.joint(f"tool_{a}").qposadr[0] for a in "xyz"])
         self._qpos = [
             np.array([self.model.joint(f"arm{a}_a{k}").qposadr[0] for k in range(1, 8)])
             for a in range(len(self.arms))
         ]
-        # Owner of every geom: part slot index, or a tag for the table, sweeps and arms.
         self._slot_of = np.full(self.model.ngeom, -1)
-        self._slot_of[self._part_geoms] = np.arange(len(self._part_geoms))
+        self._slot_of[self._slots] = np.arange(len(self._slots))
+        self._link_of = np.full(self.model.ngeom, -1)
         self._arm_of = np.full(self.model.ngeom, -1)
         for a in range(len(self.arms)):
-            for link in ("column", "upper", "forearm", "wrist"):
-                self._arm_of[name(f"arm{a}_{link}").id] = a
-        self._table = name("table").id
-        self._slot_part = np.full(len(self._part_geoms), -1)
-        self._tolerance = cfg.touch_tolerance * mjcf.MM
-        self._parked = {
-            kind: np.array([mjcf.park_position(kind, k) for k in range(len(geoms))])
-            for kind, geoms in ((0, self._part_geoms), (1, self._sweep_geoms))
-        }
-        self._park(self._part_geoms, 0)
-        self._park(self._sweep_geoms, 1)
+            for k, link in enumerate(mjcf.LINKS):
+                self._link_of[geom(f"arm{a}_{link}").id] = k
+                self._arm_of[geom(f"arm{a}_{link}").id] = a
+        self._tool_body = np.full(self.model.ngeom, -1)
+        self._tool_body[self._tool] = [_FINGER, _FINGER, _PALM, _HELD, _HELD]
+        self._table = geom("table").id
+        self._slot_owner = np.full(len(self._slots), -1)
+        self._slot_kind = np.zeros(len(self._slots), dtype=int)
+        self._tolerance = cfg.touch_tolerance
+        self._radii = np.asarray(cfg.arm.link_radii, dtype=float)
+        self._parked = np.array([mjcf.park_position(0, k) for k in range(len(self._slots))])
+        self._tool_parked = np.array([mjcf.park_position(1, k) for k in range(len(self._tool))])
+        self._place(self._slots, np.zeros((0, 2, 3)), self._parked)
+        self._place(self._tool, np.zeros((0, 2, 3)), self._tool_parked)
 
     @property
     def n_arms(self) -> int:
@@ -107,47 +180,36 @@ class RobotCell:
             assembly.parts[part], self.config.gripper, self.config.grasp_fractions
         )
 
-    def placement_options(
-        self, assembly: Assembly, part: int, motions: list[Motion]
-    ) -> list[PlacementOption]:
-        """Every (arm, grasp, motion) option of `part` with all other parts in the scene."""
-        others = [i for i in range(assembly.n_parts) if i != part]
-        self._load_parts(assembly, others)
-        return [
-            PlacementOption(arm, g, m, reachable, blockers)
-            for g, grasp in enumerate(self.grasps(assembly, part))
-            for m, motion in enumerate(motions)
-            for arm, (reachable, blockers) in enumerate(self._query(assembly, part, grasp, motion))
-        ]
+    # Scenes ---------------------------------------------------------------------------------
 
-    def check_placement(self, assembly: Assembly, part: int, placed: int, motion: Motion) -> bool:
-        """Reference check: only the parts of `placed` in the scene; True if some arm and grasp
-        reach the part along `motion` without penetrating any of them."""
-        self._load_parts(assembly, [i for i in mask_to_parts(placed) if i != part])
-        return any(
-            reachable and blockers == 0
-            for grasp in self.grasps(assembly, part)
-            for reachable, blockers in self._query(assembly, part, grasp, motion)
-        )
-
-    # Scene handling -------------------------------------------------------------------------
-
-    def _load_parts(self, assembly: Assembly, parts: list[int]) -> None:
+    def scene(self, assembly: Assembly) -> Scene:
+        """The assembly's obstacles (parts and clamps), loaded into the MuJoCo slots."""
         if assembly.n_parts > self.config.max_parts:
-            raise ValueError(
-                f"{CONFIG_FILE}: field 'max_parts' = {self.config.max_parts} is too small for "
+            raise UserError(
+                f"{CONFIG_DIR}/cell: field 'max_parts' = {self.config.max_parts} is too small for "
                 f"assembly '{assembly.name}' of {assembly.n_parts} parts; raise it"
             )
-        boxes, owners = [], []
-        for i in parts:
-            for box in part_boxes(assembly.parts[i]):
-                boxes.append(box)
-                owners.append(i)
-        self._place(self._part_geoms, np.array(boxes).reshape(-1, 2, 3), 0)
-        self._slot_part[:] = -1
-        self._slot_part[: len(owners)] = owners
+        clamps = clamp_boxes(assembly, self.config.clamp, self._tolerance)
+        boxes, owner, kind = [], [], []
+        for i, part in enumerate(assembly.parts):
+            for k, group in enumerate((part_boxes(part), clamps[i])):
+                boxes.extend(group)
+                owner.extend([i] * len(group))
+                kind.extend([k] * len(group))
+        arr = np.array(boxes).reshape(-1, 2, 3)
+        scene = Scene(assembly, clamps, arr[:, 0], arr[:, 1], np.array(owner), np.array(kind))
+        self._load(scene, list(range(assembly.n_parts)), clamps=True)
+        return scene
 
-    def _place(self, geoms: np.ndarray, boxes: np.ndarray, kind: int) -> None:
+    def _load(self, scene: Scene, parts: list[int], clamps: bool) -> None:
+        keep = np.isin(scene.owner, parts) & ((scene.kind == 0) | clamps)
+        boxes = np.stack([scene.lo[keep], scene.hi[keep]], axis=1)
+        self._place(self._slots, boxes, self._parked)
+        self._slot_owner[:] = -1
+        self._slot_owner[: keep.sum()] = scene.owner[keep]
+        self._slot_kind[: keep.sum()] = scene.kind[keep]
+
+    def _place(self, geoms: np.ndarray, boxes: np.ndarray, parked: np.ndarray) -> None:
         """Move the first len(boxes) geoms of a pool onto `boxes` (mm) and park the rest."""
         n = len(boxes)
         used = geoms[:n]
@@ -155,78 +217,278 @@ class RobotCell:
         self.model.geom_pos[used] = (boxes[:, 0] + boxes[:, 1]) / 2 * mjcf.MM
         self.model.geom_size[used] = half
         self.model.geom_rbound[used] = np.linalg.norm(half, axis=1)
+        self.model.geom_aabb[used, :3] = 0.0
         self.model.geom_aabb[used, 3:] = half
-        self._park(geoms[n:], kind, start=n)
+        rest = geoms[n:]
+        self.model.geom_pos[rest] = parked[n:]
+        self.model.geom_size[rest] = _PARKED_HALF
+        self.model.geom_rbound[rest] = np.sqrt(3) * _PARKED_HALF
+        self.model.geom_aabb[rest, :3] = 0.0
+        self.model.geom_aabb[rest, 3:] = _PARKED_HALF
 
-    def _park(self, geoms: np.ndarray, kind: int, start: int = 0) -> None:
-        self.model.geom_pos[geoms] = self._parked[kind][start:]
-        self.model.geom_size[geoms] = _PARKED_HALF
-        self.model.geom_rbound[geoms] = np.sqrt(3) * _PARKED_HALF
-        self.model.geom_aabb[geoms, :3] = 0.0
-        self.model.geom_aabb[geoms, 3:] = _PARKED_HALF
+    # Cached options --------------------------------------------------------------------------
 
-    # Queries -------------------------------------------------------------------------------
+    def placement_options(
+        self, assembly: Assembly, part: int, motions: list[Motion]
+    ) -> list[PlacementOption]:
+        """The options of one part (a scene of its own)."""
+        return self.part_options(self.scene(assembly), part, motions)
 
-    def _query(
-        self, assembly: Assembly, part: int, grasp: Grasp, motion: Motion
-    ) -> list[tuple[bool, int]]:
-        """(reachable, blockers) per arm for one grasp and motion, scene already loaded."""
-        cfg = self.config
-        if len(motion.waypoints) - 1 > cfg.max_segments:
-            raise ValueError(
-                f"{CONFIG_FILE}: field 'max_segments' = {cfg.max_segments} is below the "
-                f"{len(motion.waypoints) - 1} segments of a '{motion.kind}' motion; raise it"
-            )
-        solid = np.concatenate([part_boxes(assembly.parts[part]), grasp.gripper_boxes(cfg.gripper)])
-        self._place(self._sweep_geoms, swept_boxes(solid, motion), 1)
-        for a in range(self.n_arms):
-            self.data.qpos[self._qpos[a]] = 0.0
-        swept = self._collide()[0]
-        self.model.geom_contype[self._sweep_geoms] = 0
-        self.model.geom_conaffinity[self._sweep_geoms] = 0
-        tcp = tcp_samples(grasp.tcp, motion, cfg.arm_sample_step) * mjcf.MM
-        results = [self._arm_query(a, tcp, grasp.yaw, swept) for a in range(self.n_arms)]
-        self.model.geom_contype[self._sweep_geoms] = mjcf.SWEEP_BIT
-        self.model.geom_conaffinity[self._sweep_geoms] = mjcf.PART_BIT
-        return results
+    def part_options(self, scene: Scene, part: int, motions: list[Motion]) -> list[PlacementOption]:
+        assembly = scene.assembly
+        grasps = self.grasps(assembly, part)
+        combos = [(g, m) for g in range(len(grasps)) for m in range(len(motions))]
+        tool = self._tool_masks(scene, part, grasps, motions, combos)
+        own = np.int64(1) << part
+        arm_results = [
+            self._arm_masks(scene, part, grasps, motions, combos, a) for a in range(self.n_arms)
+        ]
+        out = []
+        for c, (g, m) in enumerate(combos):
+            base = tool[c].copy()
+            base[category("joint", "part")] = motions[m].joint_blockers & ~own
+            if not self.arms:
+                out.append(PlacementOption(-1, -1, g, m, True, True, tuple(int(x) for x in base)))
+                continue
+            for a, results in enumerate(arm_results):
+                if not results[c]:
+                    out.append(
+                        PlacementOption(a, -1, g, m, False, True, tuple(int(x) for x in base))
+                    )
+                for branch, clear, arm in results[c]:
+                    masks = tuple(int(x) for x in base | arm)
+                    out.append(PlacementOption(a, branch, g, m, True, clear, masks))
+        return out
 
-    def _arm_query(self, arm: int, tcp: np.ndarray, yaw: float, swept: int) -> tuple[bool, int]:
-        """First IK branch within limits whose links stay clear of table and themselves."""
+    def _tool_masks(
+        self,
+        scene: Scene,
+        part: int,
+        grasps: list[Grasp],
+        motions: list[Motion],
+        combos: list[tuple[int, int]],
+    ) -> np.ndarray:
+        """Per combo (grasp, motion), the category masks of fingers, palm and held part."""
+        held = part_boxes(scene.assembly.parts[part])
+        boxes, labels = [], []
+        for c, (g, m) in enumerate(combos):
+            solid = np.concatenate([grasps[g].gripper_boxes(self.config.gripper), held])
+            body = np.array([_FINGER, _FINGER, _PALM] + [_HELD] * len(held))
+            swept = swept_boxes(solid, motions[m])
+            boxes.append(swept)
+            labels.append(c * len(BODIES) + np.tile(body, len(swept) // len(solid)))
+        rows = np.concatenate(boxes)
+        keys = np.concatenate(labels)
+        other = scene.owner != part
+        lo, hi = scene.lo[other], scene.hi[other]
+        depth = np.minimum(rows[:, None, 1], hi[None]) - np.maximum(rows[:, None, 0], lo[None])
+        hits = (depth > self._tolerance).all(axis=-1)
+        out = np.zeros((len(combos) * len(BODIES), len(KINDS)), dtype=np.int64)
+        for k in range(len(KINDS)):
+            bits = np.where(hits & (scene.kind[other] == k), scene.bits[other], 0)
+            np.bitwise_or.at(out[:, k], keys, np.bitwise_or.reduce(bits, axis=1))
+        return out.reshape(len(combos), N_CATEGORIES)
+
+    def _arm_masks(
+        self,
+        scene: Scene,
+        part: int,
+        grasps: list[Grasp],
+        motions: list[Motion],
+        combos: list[tuple[int, int]],
+        arm: int,
+    ) -> list[list[tuple[int, bool, np.ndarray]]]:
+        """Per combo, (branch, clear of table and self, category masks) of the arm's usable IK
+        branches (at most `max_branches`, preferred first); [] if none reaches."""
         kin = self.arms[arm]
-        if not kin.within_reach(tcp).all():
-            return False, swept
+        samples = [
+            tcp_samples(grasps[g].tcp, motions[m], self.config.arm_sample_step) for g, m in combos
+        ]
+        bounds = np.cumsum([0, *(len(s) for s in samples)])
+        tcp = np.concatenate(samples) * mjcf.MM
+        yaw = np.concatenate(
+            [np.full(len(s), grasps[g].yaw) for s, (g, _) in zip(samples, combos, strict=True)]
+        )
         q, ok = kin.top_down_ik(tcp, yaw)
+        pairs = [
+            (c, int(b))
+            for c in range(len(combos))
+            for b in np.flatnonzero(ok[:, bounds[c] : bounds[c + 1]].all(axis=1))[
+                : self.config.max_branches
+            ]
+        ]
+        out: list[list[tuple[int, bool, np.ndarray]]] = [[] for _ in combos]
+        if not pairs:
+            return out
+        rows = np.concatenate([np.arange(bounds[c], bounds[c + 1]) for c, _ in pairs])
+        branch = np.concatenate([np.full(bounds[c + 1] - bounds[c], b) for c, b in pairs])
+        pair_of = np.repeat(np.arange(len(pairs)), [bounds[c + 1] - bounds[c] for c, _ in pairs])
+        poses = q[branch, rows]
+        near = self._near(scene, part, kin.link_points(poses) / mjcf.MM)
+        clear = np.ones(len(pairs), dtype=bool)
+        masks = np.zeros((len(pairs), N_CATEGORIES), dtype=np.int64)
         adr = self._qpos[arm]
-        for branch in np.flatnonzero(ok.all(axis=1)):
-            blockers, clear = swept, True
-            for sample in q[branch]:
-                self.data.qpos[adr] = sample
-                hits, bad = self._collide(arm)
-                if bad:
-                    clear = False
-                    break
-                blockers |= hits
-            self.data.qpos[adr] = 0.0
-            if clear:
-                return True, blockers
-        return False, swept
+        for k in np.flatnonzero(near):
+            self.data.qpos[adr] = poses[k]
+            for link, owner, kind in self._contacts(arm):
+                if owner == -1:
+                    clear[pair_of[k]] = False
+                elif owner != part:
+                    masks[pair_of[k], category(f"arm_{mjcf.LINKS[link]}", KINDS[kind])] |= (
+                        np.int64(1) << owner
+                    )
+        self.data.qpos[adr] = 0.0
+        for i, (c, b) in enumerate(pairs):
+            out[c].append((b, bool(clear[i]), masks[i]))
+        return out
 
-    def _collide(self, arm: int = -1) -> tuple[int, bool]:
-        """Run MuJoCo collision; returns (parts penetrated, whether `arm` hit table or itself)."""
+    def _near(self, scene: Scene, part: int, points: np.ndarray) -> np.ndarray:
+        """Samples (K) whose link capsules' bounds (points: K×5×3 mm) meet another part's or
+        clamp's box, the table top, or each other (non-adjacent links): MuJoCo decides those."""
+        radii = self._radii[None, :, None]
+        lo = np.minimum(points[:, :-1], points[:, 1:]) - radii
+        hi = np.maximum(points[:, :-1], points[:, 1:]) + radii
+        other = scene.owner != part
+        olo, ohi = scene.lo[other], scene.hi[other]
+        depth = np.minimum(hi[:, :, None], ohi[None, None]) - np.maximum(
+            lo[:, :, None], olo[None, None]
+        )
+        near = (depth > self._tolerance).all(axis=-1).any(axis=(1, 2))
+        near |= (lo[:, :, 2] < -self._tolerance).any(axis=1)
+        for a, b in ((0, 2), (0, 3), (1, 3)):
+            near |= ((np.minimum(hi[:, a], hi[:, b]) - np.maximum(lo[:, a], lo[:, b])) > 0).all(
+                axis=-1
+            )
+        return near
+
+    def _contacts(self, arm: int) -> list[tuple[int, int, int]]:
+        """(link, owner part, kind) of the arm's penetrating contacts in the current pose; owner
+        −1 for the table or the arm itself."""
         mujoco.mj_kinematics(self.model, self.data)
         mujoco.mj_collision(self.model, self.data)
         ncon = self.data.ncon
-        if ncon == 0:
-            return 0, False
+        out = []
+        if not ncon:
+            return out
         contact = self.data.contact
-        deep = contact.dist[:ncon] < -self._tolerance
-        blockers, bad = 0, False
+        deep = contact.dist[:ncon] < -self._tolerance * mjcf.MM
         for g1, g2 in contact.geom[:ncon][deep]:
-            slot = max(self._slot_of[g1], self._slot_of[g2])
-            owner = max(self._arm_of[g1], self._arm_of[g2])
+            link_geom, other = (g1, g2) if self._arm_of[g1] == arm else (g2, g1)
+            if self._arm_of[link_geom] != arm:
+                continue
+            link = int(self._link_of[link_geom])
+            slot = self._slot_of[other]
             if slot >= 0:
-                if owner in (-1, arm):
-                    blockers |= 1 << int(self._slot_part[slot])
-            elif owner == arm and arm >= 0:
-                bad = True
-        return blockers, bad
+                out.append((link, int(self._slot_owner[slot]), int(self._slot_kind[slot])))
+            elif other == self._table or self._arm_of[other] == arm:
+                out.append((link, -1, 0))
+        return out
+
+    # Reference check -------------------------------------------------------------------------
+
+    def check_placement(
+        self,
+        assembly: Assembly,
+        part: int,
+        placed: int,
+        motion: Motion,
+        rules: Mapping[str, bool] | None = None,
+    ) -> bool:
+        """Uncached reference: only the parts of `placed` (and, with the clamps rule, their
+        clamps) in MuJoCo; True if some arm, IK branch and grasp place `part` along `motion`
+        with nothing penetrating, the tool sampled every `REFERENCE_STEP_MM` and the arm at the
+        cached samples. Rules switched off in `rules` are not checked."""
+        on = {r: True for r in RULES} | dict(rules or {})
+        if on["joints"] and motion.joint_blockers & placed & ~(1 << part):
+            return False
+        scene = self.scene(assembly)
+        self._load(scene, [i for i in mask_to_parts(placed) if i != part], clamps=on["clamps"])
+        held = part_boxes(assembly.parts[part])
+        enabled = np.array(
+            [on["fingers"], on["fingers"], on["palm"], on["held_part"], on["held_part"]]
+        )
+        try:
+            for grasp in self.grasps(assembly, part):
+                solid = np.concatenate([grasp.gripper_boxes(self.config.gripper), held])
+                self._place(self._tool, solid, self._tool_parked)
+                self.model.geom_contype[self._tool] = np.where(enabled, mjcf.TOOL_BIT, 0)
+                if self._tool_clear(motion) and self._some_arm(grasp, motion, on):
+                    return True
+            return False
+        finally:
+            self.model.geom_contype[self._tool] = mjcf.TOOL_BIT
+            self._place(self._tool, np.zeros((0, 2, 3)), self._tool_parked)
+            self.data.qpos[:] = 0.0
+            self._load(scene, list(range(assembly.n_parts)), clamps=True)
+
+    def _tool_clear(self, motion: Motion) -> bool:
+        for offset in tcp_samples((0.0, 0.0, 0.0), motion, REFERENCE_STEP_MM):
+            self.data.qpos[self._tool_qpos] = offset * mjcf.MM
+            mujoco.mj_kinematics(self.model, self.data)
+            mujoco.mj_collision(self.model, self.data)
+            ncon = self.data.ncon
+            contact = self.data.contact
+            for g1, g2 in contact.geom[:ncon][contact.dist[:ncon] < -self._tolerance * mjcf.MM]:
+                if self._tool_body[g1] >= 0 or self._tool_body[g2] >= 0:
+                    return False
+        self.data.qpos[self._tool_qpos] = 0.0
+        return True
+
+    def _some_arm(self, grasp: Grasp, motion: Motion, on: Mapping[str, bool]) -> bool:
+        if not self.arms:
+            return True
+        park = np.array([mjcf.PARK, mjcf.PARK, mjcf.PARK])
+        self.data.qpos[self._tool_qpos] = park
+        tcp = tcp_samples(grasp.tcp, motion, self.config.arm_sample_step) * mjcf.MM
+        for arm, kin in enumerate(self.arms):
+            q, ok = kin.top_down_ik(tcp, grasp.yaw)
+            valid = np.flatnonzero(ok.all(axis=1))[: self.config.max_branches]
+            if not len(valid):
+                if not on["reach"]:
+                    return True
+                continue
+            if not on["arm_links"]:
+                return True
+            for branch in valid:
+                clear = True
+                for sample in q[branch]:
+                    self.data.qpos[self._qpos[arm]] = sample
+                    if self._contacts(arm):
+                        clear = False
+                        break
+                self.data.qpos[self._qpos[arm]] = 0.0
+                if clear:
+                    return True
+        return False
+
+    # Drawing --------------------------------------------------------------------------------
+
+    def pose(self, assembly: Assembly, placed: int, part: int, option: PlacementOption) -> CellPose:
+        """The cell after `part` is placed with `option` in state `placed` (for drawing)."""
+        scene = self.scene(assembly)
+        grasp = self.grasps(assembly, part)[option.grasp]
+        angles = {a: np.zeros(7) for a in range(self.n_arms)}
+        if option.arm >= 0 and option.branch >= 0:
+            q, _ = self.arms[option.arm].top_down_ik(
+                np.asarray(grasp.tcp)[None] * mjcf.MM, grasp.yaw
+            )
+            angles[option.arm] = q[option.branch, 0].copy()
+        self.data.qpos[:] = 0.0
+        for a, q in angles.items():
+            self.data.qpos[self._qpos[a]] = q
+        mujoco.mj_kinematics(self.model, self.data)
+        bodies = {
+            self.model.body(b).name: (
+                self.data.xpos[b] / mjcf.MM,
+                self.data.xmat[b].reshape(3, 3).copy(),
+            )
+            for b in range(1, self.model.nbody)
+            if self.model.body(b).name.startswith("arm")
+        }
+        self.data.qpos[:] = 0.0
+        tool = np.concatenate(
+            [grasp.gripper_boxes(self.config.gripper), part_boxes(assembly.parts[part])]
+        )
+        now = placed | 1 << part
+        parts = {i: scene.boxes_of([i]) for i in mask_to_parts(now)}
+        return CellPose(angles, bodies, tool, parts)

@@ -1,9 +1,9 @@
-"""The simulator facade: generate a structure, label it with the robot cell (issue 2).
+"""The simulator facade: generate a frame, label it with the robot cell (docs/world.md).
 
-Ground truth as SPEC §1 asks of the original simulator: every feasible order of an assembly under
-the constraints of a dual-arm cell, stored as the reachable-state DAG (`GroundTruth`).
-
-Built by `hydra.utils.instantiate(cfg.simulator)` from `grace/conf/simulator/dual_arm.yaml`.
+Ground truth as the paper's simulator gives it (Sec. IV-A of the paper): every feasible order of
+an assembly under the constraints of the robot cell, stored as the reachable-state DAG
+(`GroundTruth`). Built by `hydra.utils.instantiate(cfg.simulator)` from
+`grace/conf/simulator/{dual_arm,single_arm,boxes}.yaml`, which differ only in the cell's arms.
 """
 
 from __future__ import annotations
@@ -17,60 +17,105 @@ import numpy as np
 from grace.domain.assembly import Assembly
 from grace.domain.motion import Motion
 from grace.domain.sample import LabelledAssembly
+from grace.errors import UserError
 from grace.simulation import feasibility
+from grace.simulation.cell_config import CONFIG_DIR, RULES, MotionConfig, typed
+from grace.simulation.explain import Verdict, explain
 from grace.simulation.generator import StructureGenerator
 from grace.simulation.joints import insertion_motions, touching
-from grace.simulation.robot_cell import RobotCell
+from grace.simulation.robot_cell import CellPose, RobotCell
 
 
 class Simulator:
-    """Generates assemblies and brute-forces (with caching) their feasible orders.
+    """Generates frames and enumerates (with cached cell queries) their feasible orders.
 
     `cell` is the robot cell's config (kwargs of `RobotCell`) or an already built cell with the
-    same interface (tests pass a fake). `finger_mm` is the gap a gripper finger needs, used to draw
-    rail gaps on either side of it; `slide_length` the T-slot slide stretch, `approach_height`
-    the height a part is lowered from, `touch_tolerance` the face distance that still counts as
-    contact (all mm).
+    same interface; `generator` the frame generator's config; `motion` how parts move
+    (`MotionConfig`); `rules` switches each rule of docs/world.md on or off (all on by default).
     """
 
     def __init__(
         self,
+        cell: Mapping[str, Any] | RobotCell,
         generator: Mapping[str, Any],
-        cell: Mapping[str, Any] | feasibility.Cell,
-        finger_mm: float,
-        slide_length: float,
-        approach_height: float,
-        touch_tolerance: float,
+        motion: Mapping[str, Any] | MotionConfig,
+        rules: Mapping[str, bool] | None = None,
     ) -> None:
         self.cell = RobotCell(**dict(cell)) if isinstance(cell, Mapping) else cell
-        self.slide_length = float(slide_length)
-        self.approach_height = float(approach_height)
-        self.touch_tolerance = float(touch_tolerance)
-        self.generator = StructureGenerator(
-            finger_mm=finger_mm, tolerance=self.touch_tolerance, **dict(generator)
-        )
+        self.motion = typed(MotionConfig, motion, "motion")
+        switches = dict(rules or {})
+        unknown = set(switches) - set(RULES)
+        if unknown:
+            raise UserError(
+                f"{CONFIG_DIR}: field 'rules' has unknown rules {sorted(unknown)}; "
+                f"use {list(RULES)}"
+            )
+        self.rules = tuple(r for r in RULES if switches.get(r, True))
+        self.tolerance = float(self.cell.config.touch_tolerance)
+        self.generator = StructureGenerator(tolerance=self.tolerance, **dict(generator))
 
     def generate(self, n_parts: int, rng: np.random.Generator) -> Assembly:
         return self.generator.generate(n_parts, rng)
 
     def motions(self, assembly: Assembly) -> list[list[Motion]]:
-        """Candidate insertion motions per part (joints.insertion_motions with this config)."""
+        """Candidate motions per part (joints.insertion_motions with this config)."""
+        m = self.motion
         return insertion_motions(
-            assembly, self.slide_length, self.approach_height, self.touch_tolerance
+            assembly, m.slide_length, m.slide_lead, m.approach_height, self.tolerance
         )
 
     def label(self, assembly: Assembly) -> LabelledAssembly:
         """All feasible orders of `assembly` and the diagnostics of feasibility.label."""
         start = time.perf_counter()
-        touch = touching(assembly, self.touch_tolerance)
-        sample = feasibility.label(assembly, self.cell, self.motions(assembly), touch)
+        scene = self.cell.scene(assembly)
+        motions = self.motions(assembly)
+        options = [self.cell.part_options(scene, p, motions[p]) for p in range(assembly.n_parts)]
+        sample = feasibility.label(
+            assembly, options, touching(assembly, self.tolerance), self.rules
+        )
+        # Clamp bodies' footprints (x0, y0, x1, y1 mm) per part, for pictures; [] = no clamp.
+        sample.info["clamps"] = [
+            [round(float(v), 1) for v in (*c[0, 0, :2], *c[0, 1, :2])] if len(c) else []
+            for c in scene.clamps
+        ]
         sample.info["seconds"] = time.perf_counter() - start
         return sample
 
     def sample(self, n_parts: int, rng: np.random.Generator) -> LabelledAssembly:
         return self.label(self.generate(n_parts, rng))
 
-    def replay(self, assembly: Assembly, order: Sequence[int]) -> int | None:
-        """First failing step of `order` under the robot's uncached checks, None if it works."""
-        touch = touching(assembly, self.touch_tolerance)
-        return feasibility.replay(assembly, order, self.cell, self.motions(assembly), touch)
+    def replay(
+        self, assembly: Assembly, order: Sequence[int], rules: Sequence[str] | None = None
+    ) -> int | None:
+        """First failing step of `order` under the cell's uncached MuJoCo checks, None if it
+        works (with only `rules` active, default this simulator's)."""
+        touch = touching(assembly, self.tolerance)
+        active = self.rules if rules is None else tuple(rules)
+        return feasibility.replay(assembly, order, self.cell, self.motions(assembly), touch, active)
+
+    def explain(self, assembly: Assembly, placed: int, part: int) -> Verdict:
+        """Why `part` can or cannot be placed once the parts of bitmask `placed` are
+        (docs/world.md, "Explain"): the deciding rule and, per candidate (arm, IK branch,
+        grasp, motion), what blocks it. A few milliseconds: one part's cell queries."""
+        motions = self.motions(assembly)
+        options = self.cell.placement_options(assembly, part, motions[part])
+        fixation = feasibility.Fixation.of(assembly, touching(assembly, self.tolerance))
+        return explain(part, placed, options, motions[part], fixation, self.rules)
+
+    def pose(self, assembly: Assembly, placed: int, part: int) -> CellPose | None:
+        """The cell as it places `part` in state `placed` with the option `explain` uses:
+        joint angles of every arm, MuJoCo body poses, tool and part boxes (mm), for drawing.
+        None if the placement is infeasible."""
+        verdict = self.explain(assembly, placed, part)
+        used = verdict.used if verdict.feasible else None
+        if used is None:
+            return None
+        motions = self.motions(assembly)
+        options = self.cell.placement_options(assembly, part, motions[part])
+        option = next(
+            o
+            for o in options
+            if (o.arm, o.branch, o.grasp, o.motion)
+            == (used.arm, used.branch, used.grasp, used.motion)
+        )
+        return self.cell.pose(assembly, placed, part, option)

@@ -1,8 +1,10 @@
-"""Top view of assemblies (issue 2): part footprints, part numbers, surface numbers, feasibility.
+"""Top view of assemblies: part footprints, clamps, part numbers, surface numbers, feasibility.
 
 Part numbers are the 0-based indices the orders use; surface numbers are the 1-based `k` of
-`<part>_surface_<k>` (SPEC §2), drawn just outside the face they name. Rendered without pyplot
-(a bare Figure, Agg canvas) into PNG bytes, so callers decide where (and how atomically) to write.
+`<part>_surface_<k>` (docs/assembly-graph.md), drawn just outside the face they name. Clamps
+(docs/world.md) are the hatched boxes the simulator records in `info["clamps"]`. Rendered
+without pyplot (a bare Figure, Agg canvas) into PNG bytes, so callers decide where (and how
+atomically) to write.
 """
 
 from __future__ import annotations
@@ -34,12 +36,21 @@ def title(sample: LabelledAssembly) -> str:
     if sample.truth.feasible:
         n = sample.truth.n_orders()
         return f"{head}: feasible, {n} order{'s' if n != 1 else ''}"
-    cause = sample.info.get("cause")
-    return f"{head}: infeasible" + (f" ({cause})" if cause else "")
+    why = ", ".join(sample.info.get("mechanisms") or []) or sample.info.get("cause")
+    return f"{head}: infeasible" + (f" ({why})" if why else "")
 
 
 def draw(ax: Axes, sample: LabelledAssembly) -> None:
     """Draw one assembly into `ax`."""
+    for box in sample.info.get("clamps") or []:
+        if box:
+            x0, y0, x1, y1 = box
+            ax.add_patch(
+                Rectangle(
+                    (x0, y0), x1 - x0, y1 - y0, facecolor="none", edgecolor="#555", hatch="///",
+                    lw=0.5,
+                )
+            )  # fmt: skip
     for index, part in enumerate(sample.assembly.parts):
         for x0, y0, x1, y1 in part.footprint_boxes():
             ax.add_patch(
@@ -86,7 +97,8 @@ def topview_png(samples: Sequence[LabelledAssembly], columns: int = 3) -> bytes:
     for ax in list(axes.flat)[len(samples) :]:
         ax.axis("off")
     fig.suptitle(
-        "bold: part numbers (as in the orders); red: surface numbers (SPEC §2)", fontsize=9
+        "bold: part numbers (as in the orders); red: surface numbers; hatched: clamps",
+        fontsize=9,
     )
     fig.tight_layout()
     buffer = io.BytesIO()

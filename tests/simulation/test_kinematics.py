@@ -1,4 +1,4 @@
-"""Closed-form iiwa IK against MuJoCo forward kinematics (issue 2, reach)."""
+"""Closed-form iiwa IK and link points against MuJoCo forward kinematics (rule: reach)."""
 
 from __future__ import annotations
 
@@ -7,18 +7,14 @@ import dataclasses
 import mujoco
 import numpy as np
 import pytest
-import yaml
 
-from grace import CONF_DIR
 from grace.simulation.kinematics import N_BRANCHES, top_down_rotation
 from grace.simulation.robot_cell import RobotCell
 
-CELL = CONF_DIR / "simulator" / "cell" / "iiwa14_dual.yaml"
-
 
 @pytest.fixture(scope="module")
-def cell() -> RobotCell:
-    return RobotCell(**yaml.safe_load(CELL.read_text()))
+def cell(sim_cfg) -> RobotCell:
+    return RobotCell(**sim_cfg["cell"])
 
 
 def _forward(cell: RobotCell, arm: int, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -72,3 +68,19 @@ def test_solutions_along_a_path_vary_smoothly(cell):
     q, ok = kin.top_down_ik(path, 0.3)
     branch = np.flatnonzero(ok.all(axis=1))[0]
     assert np.abs(np.diff(q[branch], axis=0)).max() < np.radians(5.0)
+
+
+def test_link_points_match_mujoco_bodies(cell):
+    """The numpy link endpoints the broad phase uses are MuJoCo's body origins."""
+    kin = cell.arms[1]
+    q, ok = kin.top_down_ik(np.array([[0.1, -0.15, 0.03]]), 0.7)
+    for branch in np.flatnonzero(ok[:, 0]):
+        points = kin.link_points(q[branch, 0])
+        cell.data.qpos[:] = 0.0
+        cell.data.qpos[cell._qpos[1]] = q[branch, 0]
+        mujoco.mj_kinematics(cell.model, cell.data)
+        bodies = [cell.data.xpos[cell.model.body(f"arm1_l{k}").id] for k in (1, 2, 3, 4)]
+        np.testing.assert_allclose(points[:4], bodies, atol=1e-9)
+        tcp = cell.data.site_xpos[cell.model.site("arm1_tcp").id]
+        np.testing.assert_allclose(points[4] - [0, 0, kin.tool_length], tcp, atol=1e-6)
+    cell.data.qpos[:] = 0.0

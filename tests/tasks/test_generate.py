@@ -14,6 +14,7 @@ UNUSED = ("~model", "~trainer", "~protocol")
 SIZE_KEYS = {
     "assemblies": int, "infeasible_fraction": float, "orders_mean": float, "orders_median": float,
     "multi_order_fraction": float, "infeasible_causes": dict, "robot_pruned_fraction": float,
+    "infeasible_mechanisms": dict, "rule_decisive_fraction": dict,
     "nonlocal_block_fraction": float, "states": int, "naive_checks": int, "checks": int,
 }  # fmt: skip
 
@@ -36,9 +37,11 @@ def assert_stats_schema(stats: dict, sizes: dict[int, int]) -> None:
                 or (kind is float and isinstance(value, int))
             ), key
         assert set(entry["infeasible_causes"]) == {"reach", "collision", "other"}
-        fractions = [entry[k] for k in SIZE_KEYS if k.endswith("fraction")] + list(
-            entry["infeasible_causes"].values()
-        )
+        fractions = [
+            entry[k] for k in SIZE_KEYS if k.endswith("fraction") and SIZE_KEYS[k] is float
+        ]
+        for shares in ("infeasible_causes", "infeasible_mechanisms", "rule_decisive_fraction"):
+            fractions += list(entry[shares].values())
         assert all(f is None or 0 <= f <= 1 for f in fractions)
         causes = [f for f in entry["infeasible_causes"].values() if f is not None]
         assert not causes or math.isclose(sum(causes), 1.0)

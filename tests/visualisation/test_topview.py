@@ -46,3 +46,12 @@ def test_png_grid():
     with pytest.raises(ValueError):
         topview_png([])
     assert np.frombuffer(png[16:24], dtype=">u4").tolist()[0] > 0  # IHDR width
+
+
+def test_mechanisms_name_the_infeasibility_and_clamps_are_drawn():
+    sample = _sample(False)
+    sample.info.update(mechanisms=["narrow_rails", "clamp"], clamps=[[-20, -60, 20, -20], [], []])
+    assert title(sample) == "A3-000007: infeasible (narrow_rails, clamp)"
+    ax = Figure().subplots()
+    draw(ax, sample)
+    assert len(ax.patches) == 5  # the parts' four boxes and one clamp

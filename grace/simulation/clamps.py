@@ -1,0 +1,111 @@
+"""The fixture's swing clamps: where each profile is held down once placed (docs/world.md).
+
+Every profile is clamped to the fixture plate as soon as it is placed and stays clamped until the
+frame is done, so its clamp is an obstacle from then on, like the part itself (it shares the
+part's bit in every blocker mask). A clamp is a body standing beside the profile's long side and
+an arm over the profile's top. The fixture designer puts it as near the profile's middle as
+there is room (no other part's footprint and no other clamp within its footprint), ties to the
+side facing away from the frame's centre, then the lower position. A profile with no free spot
+on either side gets no clamp. The placement is a function of the assembly's geometry alone, so
+it is the same for every order and every simulator, and an imported assembly gets the same
+clamps.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from grace.domain.assembly import PROFILE_SECTION_MM, Assembly, Part
+from grace.simulation.cell_config import ClampConfig
+from grace.simulation.joints import Box, axis_of
+
+HALF = PROFILE_SECTION_MM / 2
+
+
+def clamp_boxes(assembly: Assembly, cfg: ClampConfig, tolerance: float) -> list[np.ndarray]:
+    """Per part, its clamp as k×2×3 boxes (lo, hi) in world mm (k = 0 for brackets)."""
+    footprints = [box for p in assembly.parts for box in p.footprint_boxes()]
+    centre = np.mean([p.xy for p in assembly.parts], axis=0)
+    taken: list[Box] = []
+    out = []
+    for part in assembly.parts:
+        spot = (
+            _spot(part, cfg, footprints + taken, centre, tolerance)
+            if part.type.is_profile
+            else None
+        )
+        if spot is None:
+            out.append(np.zeros((0, 2, 3)))
+            continue
+        body, arm = spot
+        taken.append(body)
+        out.append(
+            np.array(
+                [
+                    [[body[0], body[1], 0.0], [body[2], body[3], cfg.height]],
+                    [
+                        [arm[0], arm[1], PROFILE_SECTION_MM],
+                        [arm[2], arm[3], PROFILE_SECTION_MM + cfg.arm_thickness],
+                    ],
+                ]
+            )
+        )
+    return out
+
+
+def _spot(
+    part: Part, cfg: ClampConfig, obstacles: list[Box], centre: np.ndarray, tolerance: float
+) -> tuple[Box, Box] | None:
+    u = axis_of(part)
+    n = np.array([-u[1], u[0]])
+    half_span = part.type.length / 2 - cfg.width / 2
+    steps = int(half_span // cfg.grid)
+    positions = np.arange(-steps, steps + 1) * cfg.grid
+    outward = float((np.asarray(part.xy) - centre) @ n)
+    best: tuple[tuple[float, float, float], tuple[Box, Box]] | None = None
+    blocks = np.array(obstacles).reshape(-1, 4)
+    for side in (1.0, -1.0):
+        free = _free(part, u, n * side, positions, cfg, blocks, tolerance)
+        for at in positions[free]:
+            key = (-abs(float(at)), side * outward, -float(at))
+            if best is None or key > best[0]:
+                best = (key, _boxes(part, u, n * side, float(at), cfg))
+    return None if best is None else best[1]
+
+
+def _boxes(
+    part: Part, u: np.ndarray, n: np.ndarray, along: float, cfg: ClampConfig
+) -> tuple[Box, Box]:
+    c = np.asarray(part.xy) + u * along
+    body = _box(c + n * (HALF + cfg.depth / 2), u * cfg.width / 2, n * cfg.depth / 2)
+    arm = _box(c + n * (cfg.depth / 2), u * cfg.arm_width / 2, n * (HALF + cfg.depth / 2))
+    return body, arm
+
+
+def _box(centre: np.ndarray, a: np.ndarray, b: np.ndarray) -> Box:
+    half = np.abs(a) + np.abs(b)
+    lo, hi = centre - half, centre + half
+    return (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
+
+
+def _free(
+    part: Part,
+    u: np.ndarray,
+    n: np.ndarray,
+    positions: np.ndarray,
+    cfg: ClampConfig,
+    blocks: np.ndarray,
+    tolerance: float,
+) -> np.ndarray:
+    """Per candidate position, whether the clamp body there overlaps no obstacle footprint."""
+    centre = np.asarray(part.xy) + n * (HALF + cfg.depth / 2)
+    half = np.abs(u) * cfg.width / 2 + np.abs(n) * cfg.depth / 2
+    centres = centre[None] + positions[:, None] * u[None]
+    lo, hi = centres - half, centres + half
+    depth_x = np.minimum(hi[:, None, 0], blocks[None, :, 2]) - np.maximum(
+        lo[:, None, 0], blocks[None, :, 0]
+    )
+    depth_y = np.minimum(hi[:, None, 1], blocks[None, :, 3]) - np.maximum(
+        lo[:, None, 1], blocks[None, :, 1]
+    )
+    return ~((depth_x > tolerance) & (depth_y > tolerance)).any(axis=1)
