@@ -1,9 +1,13 @@
-"""Entry point: `python -m grace task=<name> ...` composes the config and runs one task."""
+"""Entry point: `python -m grace task=<name> ...` (or `grace ...`) composes the config and runs one
+task. The configs ship inside the package (grace/conf), so this works from any folder."""
 
 import hydra
 from omegaconf import DictConfig
 
 from grace.tasks.runner import run_task
+from grace.tasks.schemas import register_schemas
+
+register_schemas()
 
 
 @hydra.main(version_base="1.3", config_path="conf", config_name="config")
