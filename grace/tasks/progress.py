@@ -80,6 +80,8 @@ class _FoldBar:
         self.bar.refresh()
 
     def losses(self, losses: dict[str, float]) -> None:
+        """The epoch is over: a full bar and its losses."""
+        self.bar.n = self.bar.total or 0
         self.bar.set_postfix({k: f"{v:.4f}" for k, v in sorted(losses.items())})
 
     def stage(self, text: str) -> None:
@@ -146,3 +148,4 @@ class ExperimentProgress:
                 )
             else:
                 getattr(self._bar(fold), kind)(*payload)
+            self._overall.refresh()  # its clock
