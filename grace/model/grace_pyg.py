@@ -1,4 +1,6 @@
-"""GRACE (SPEC §5) on PyTorch Geometric: the reference per-state path and the shared weights.
+"""GRACE on PyTorch Geometric: the reference per-state path and the shared weights.
+
+The network of paper Sec. IV-C (docs/training.md).
 
 Block = GATv2 attention conv → InstanceNorm (affine, no running stats) → tanh.
 Surface blocks: GATv2 on the complete surface graph (edge_dim 1, self loops filled with 0).
@@ -203,5 +205,5 @@ def _batch_vector(data: HeteroData | Batch, node_type: str) -> torch.Tensor:
 
 
 def count_parameters(net: nn.Module) -> int:
-    """Number of trainable parameters (SPEC §5: 51.7 K at the paper's configuration)."""
+    """Number of trainable parameters (51.7 K at the paper's configuration, Sec. V-A3)."""
     return sum(p.numel() for p in net.parameters() if p.requires_grad)

@@ -13,7 +13,7 @@ from grace.model.grace_pyg import GraceNet, NetConfig, count_parameters
 def test_paper_parameter_count():
     n = count_parameters(GraceNet(NetConfig()))
     assert n == 51_701
-    assert round(n / 1000, 1) == 51.7  # SPEC §5: 51.7 K
+    assert round(n / 1000, 1) == 51.7  # the paper, Sec. V-A3: 51.7 K
 
 
 def test_state_blocks_variant_adds_one_surface_input():

@@ -100,6 +100,7 @@ def test_inter_sized_protocols_use_top_level_sizes(tmp_path, fake_cfg):
     check_schema(o2m)
 
 
+@pytest.mark.slow
 def test_python_m_grace_smoke_end_to_end(tmp_path):
     """The real pipeline (simulator data, GRACE training, planning) in a temporary folder."""
     out = tmp_path / "run"
