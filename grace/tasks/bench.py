@@ -21,7 +21,6 @@ import logging
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import torch
@@ -37,6 +36,7 @@ from grace.model.loss import grace_loss
 from grace.model.module import GraceModule
 from grace.model.scoring import make_scorer
 from grace.planning.bench import planner_benchmark
+from grace.tasks.runner import TaskSettings
 
 log = logging.getLogger(__name__)
 
@@ -45,11 +45,9 @@ IMPLS: tuple[NetImpl, ...] = (PygImpl(), FastImpl())
 
 
 @dataclass
-class BenchSettings:
+class BenchSettings(TaskSettings):
     """Schema of `task=bench` (values in grace/conf/task/bench.yaml)."""
 
-    name: str = MISSING
-    run: Any = MISSING  # this module's run, as a partial
     train_size: int = MISSING
     infer_size: int = MISSING
     assemblies: int = MISSING

@@ -35,17 +35,16 @@ from grace.evaluation.report import aggregate, write_results
 from grace.planning.sequences import Scorer
 from grace.tasks.logs import log_to_file
 from grace.tasks.progress import ExperimentProgress, FoldReporter
+from grace.tasks.runner import TaskSettings
 from grace.visualisation.plots import p_at_k_bars, pr_curves
 
 log = logging.getLogger(__name__)
 
 
 @dataclass
-class ExperimentSettings:
+class ExperimentSettings(TaskSettings):
     """Schema of `task=experiment` (values in grace/conf/task/experiment.yaml)."""
 
-    name: str = MISSING
-    run: Any = MISSING  # this module's run, as a partial
     fit: Any = MISSING  # (cfg, train, val, out_dir, callbacks) -> trained module, a partial
     scorer: Any = MISSING  # (module) -> Scorer, a partial
     threshold: float = MISSING

@@ -14,23 +14,21 @@ import logging
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from omegaconf import MISSING, DictConfig
 
 from grace.data.atomic import write_text_atomic
 from grace.errors import UserError
 from grace.evaluation.report import METRIC_ROWS, cell, lookup, row_cells
+from grace.tasks.runner import TaskSettings
 
 log = logging.getLogger(__name__)
 
 
 @dataclass
-class GatherSettings:
+class GatherSettings(TaskSettings):
     """Schema of `task=gather` (values in grace/conf/task/gather.yaml)."""
 
-    name: str = MISSING
-    run: Any = MISSING  # this module's run, as a partial
     roots: list[str] = MISSING
 
 

@@ -12,7 +12,6 @@ import logging
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from hydra.utils import instantiate
 from omegaconf import MISSING, DictConfig
@@ -23,17 +22,16 @@ from grace.data.stats import dataset_stats
 from grace.data.store import GeneratedSource, read_chunks, seconds_per_assembly
 from grace.domain.sample import LabelledAssembly
 from grace.errors import UserError
+from grace.tasks.runner import TaskSettings
 from grace.visualisation.topview import topview_png
 
 log = logging.getLogger(__name__)
 
 
 @dataclass
-class GenerateSettings:
+class GenerateSettings(TaskSettings):
     """Schema of `task=generate` (values in grace/conf/task/generate.yaml)."""
 
-    name: str = MISSING
-    run: Any = MISSING  # this module's run, as a partial
     topview: int = MISSING
     export_raw: str | None = MISSING
 

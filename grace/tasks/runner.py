@@ -3,15 +3,26 @@
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
+from typing import Any
 
 import torch
 from hydra.utils import instantiate
 from lightning.pytorch import seed_everything
-from omegaconf import DictConfig
+from omegaconf import MISSING, DictConfig
 
 from grace.tasks.logs import quiet_terminal
 
 log = logging.getLogger(__name__)
+
+
+@dataclass
+class TaskSettings:
+    """What every `task` config holds (the base of each task's schema): its name, which names
+    the run folder, and `run`, the task function as a `_partial_` target."""
+
+    name: str = MISSING
+    run: Any = MISSING
 
 
 def run_task(cfg: DictConfig) -> float | None:

@@ -26,16 +26,15 @@ from grace.graphs.assembly_graph import state_flags
 from grace.graphs.datamodule import StateSet, training_states
 from grace.model.grace_pyg import count_parameters
 from grace.model.scoring import Scorer, make_scorer
+from grace.tasks.runner import TaskSettings
 
 log = logging.getLogger(__name__)
 
 
 @dataclass
-class TrainSettings:
+class TrainSettings(TaskSettings):
     """Schema of `task=train` (values in grace/conf/task/train.yaml)."""
 
-    name: str = MISSING
-    run: Any = MISSING  # this module's run, as a partial
     fit: Any = MISSING  # (cfg, train, val, out_dir) -> trained module, a partial
     test_fraction: float = MISSING
     val_fraction: float = MISSING
