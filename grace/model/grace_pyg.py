@@ -20,6 +20,7 @@ from torch import nn
 from torch_geometric.data import Batch, HeteroData
 from torch_geometric.nn import GATv2Conv, HeteroConv, InstanceNorm
 
+from grace.errors import UserError
 from grace.graphs.assembly_graph import PART_EDGE, SURFACE_EDGE
 
 
@@ -55,13 +56,14 @@ class NetConfig:
 
     def __post_init__(self) -> None:
         if not 0 <= self.state_blocks <= self.surface_blocks:
-            raise ValueError(
-                f"model.state_blocks={self.state_blocks}: use 0 to model.surface_blocks="
+            raise UserError(
+                f"model.net.state_blocks={self.state_blocks}: use 0 to model.net.surface_blocks="
                 f"{self.surface_blocks}"
             )
         if self.readout_rounds < 1 or (self.readout_rounds > 1 and not self.pair_readout):
-            raise ValueError(
-                f"model.readout_rounds={self.readout_rounds}: use 1, or more with pair_readout > 0"
+            raise UserError(
+                f"model.net.readout_rounds={self.readout_rounds}: use 1, or more with "
+                "model.net.pair_readout > 0"
             )
 
     @property
