@@ -36,6 +36,7 @@ from grace import CONF_DIR
 from grace.domain.assembly import Assembly, Part, PartType, canonical_order, planar_pose
 from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
+from grace.tasks.schemas import register_schemas
 
 MODULE_ALIAS = "grace_tests_conftest"
 sys.modules[MODULE_ALIAS] = sys.modules[__name__]
@@ -47,6 +48,7 @@ def cfg_factory(tmp_path: Path) -> Callable[..., DictConfig]:
 
     def make(*overrides: str) -> DictConfig:
         out, data = tmp_path / "output", tmp_path / "data"
+        register_schemas()
         GlobalHydra.instance().clear()
         with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
             cfg = compose(

@@ -1,11 +1,11 @@
-"""`load_dataset(cfg)`: the one call train and experiment tasks use to get their assemblies.
+"""The original data set's raw folders as a data source (`dataset=raw`).
 
-- `dataset=generated`: generate what is missing, then load from the cache (grace.data.store).
-- `dataset=raw dataset.path=...`: import a folder of raw assembly folders (SPEC §3) once and cache
-  the import as shard files under `<paths.data_dir>/raw-<key>/`, the key hashing the folder's
-  path and its files' names, sizes and modification times, so an edit re-imports.
-Both return the assemblies ordered by size, then by index (generated) or folder path (raw);
-`dataset.sizes` (size → count) selects the first `count` of each size (`null` = all, raw only).
+:class:`RawSource` imports a folder of raw assembly folders (docs/raw-format.md) once and caches
+the import as shard files under `<data_dir>/raw-<key>/`, the key hashing the folders' paths and
+their files' sizes and modification times, so an edit re-imports. Like
+:class:`grace.data.store.GeneratedSource` (`dataset=generated`) its `load()` returns the
+assemblies ordered by size, then by folder path; `sizes` (size → count) selects the first `count`
+of each size (`null` = all of them).
 """
 
 from __future__ import annotations
@@ -13,15 +13,15 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
+from dataclasses import dataclass
 from pathlib import Path
-
-from omegaconf import DictConfig
 
 from grace.data.atomic import write_text_atomic
 from grace.data.raw_format import RAW_FILES, find_raw_folders, import_raw_folders
 from grace.data.shards import SHARD_SUFFIX, read_shard, write_shard
-from grace.data.store import load_generated, requested_sizes
+from grace.data.store import requested_sizes
 from grace.domain.sample import LabelledAssembly
+from grace.errors import UserError
 
 log = logging.getLogger(__name__)
 
@@ -67,12 +67,14 @@ def import_raw_tree(root: str | Path, cache: str | Path) -> list[LabelledAssembl
     return [s for size in sorted(by_size) for s in by_size[size]]
 
 
-def _select(samples: list[LabelledAssembly], dataset: DictConfig) -> list[LabelledAssembly]:
-    if dataset.get("sizes") is None:
+def select_sizes(
+    samples: list[LabelledAssembly], sizes: dict[int, int] | None
+) -> list[LabelledAssembly]:
+    """The first `count` samples of each size in `sizes` (all samples when `sizes` is None)."""
+    if sizes is None:
         return samples
-    wanted = requested_sizes(dataset)
     out = []
-    for size, count in wanted.items():
+    for size, count in requested_sizes(sizes).items():
         group = [s for s in samples if s.size == size]
         if len(group) < count:
             log.warning(
@@ -82,16 +84,18 @@ def _select(samples: list[LabelledAssembly], dataset: DictConfig) -> list[Labell
     return out
 
 
-def load_dataset(cfg: DictConfig) -> list[LabelledAssembly]:
-    """The assemblies `cfg.dataset` describes (see module docstring)."""
-    kind = cfg.dataset.name
-    if kind == "generated":
-        return load_generated(cfg)
-    if kind == "raw":
-        path = cfg.dataset.get("path")
-        if not path:
-            raise ValueError(
+@dataclass
+class RawSource:
+    """Raw assembly folders found recursively under `path`, imported once into `data_dir`."""
+
+    data_dir: str
+    path: str | None = None
+    sizes: dict[int, int] | None = None
+
+    def load(self) -> list[LabelledAssembly]:
+        """The selected assemblies (see the module docstring)."""
+        if not self.path:
+            raise UserError(
                 "dataset=raw needs dataset.path; fix: add dataset.path=/folder/of/assembly/folders"
             )
-        return _select(import_raw_tree(path, cfg.paths.data_dir), cfg.dataset)
-    raise ValueError(f"dataset.name={kind!r} is unknown; fix: use dataset=generated or dataset=raw")
+        return select_sizes(import_raw_tree(self.path, self.data_dir), self.sizes)

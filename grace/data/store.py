@@ -1,17 +1,18 @@
 """Generated data sets: cached, resumable, shardable and byte-deterministic (issue 2).
 
-Layout: `<paths.data_dir>/generated-<key>/` where the key hashes everything that decides the
-contents: the simulator config, the generator-relevant dataset config, the seed, the record
-format and the source of the packages that make the data (domain, simulation), so a change of
-the world's code never serves stale data. Inside, one shard file per chunk of consecutive
-assemblies of one size, `A<size>/<start>-<stop>.jsonl.gz`, plus a `<start>-<stop>.seconds.json`
-timing sidecar (timings vary between runs, so they stay out of the data bytes).
+:class:`GeneratedSource` (`dataset=generated`) is the data source. Layout:
+`<data_dir>/generated-<key>/` where the key hashes everything that decides the contents: the
+simulator config, the seed, the record format and the source of the packages that make the data
+(domain, simulation), so a change of the world's code never serves stale data. Inside, one shard
+file per chunk of consecutive assemblies of one size, `A<size>/<start>-<stop>.jsonl.gz`, plus a
+`<start>-<stop>.seconds.json` timing sidecar (timings vary between runs, so they stay out of the
+data bytes).
 
 Assembly i of size n is drawn from its own generator seeded by (seed, n, i), so the data do not
 depend on chunking, sharding or the number of workers. A chunk is written atomically once done;
 a rerun skips finished chunks (resume), and `dataset.shard=i dataset.num_shards=n` makes a run
 generate only every n-th chunk from the i-th, so several processes or machines can share the
-work; any later unsharded run (or :func:`load_generated`) finds them and only fills gaps.
+work; any later unsharded run (or :meth:`GeneratedSource.load`) finds them and only fills gaps.
 """
 
 from __future__ import annotations
@@ -22,18 +23,19 @@ import logging
 import multiprocessing as mp
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from hydra.utils import instantiate
-from omegaconf import DictConfig, OmegaConf
+from omegaconf import OmegaConf
 from tqdm import tqdm
 
 from grace.data.atomic import write_text_atomic
 from grace.data.shards import SHARD_SUFFIX, read_shard, write_shard
 from grace.domain.sample import LabelledAssembly
+from grace.errors import UserError
 
 log = logging.getLogger(__name__)
 
@@ -42,9 +44,6 @@ FORMAT_VERSION = 1
 
 SOURCE_PACKAGES = ("domain", "simulation")
 """Packages under `grace/` whose source is hashed into the cache key."""
-
-OPERATIONAL_KEYS = frozenset({"sizes", "shard", "num_shards", "workers", "chunk_size"})
-"""Dataset keys that decide how much or how fast to generate, not what an assembly is."""
 
 
 @dataclass(frozen=True)
@@ -80,17 +79,16 @@ class Generation:
         return self.missing == 0
 
 
-def requested_sizes(dataset: DictConfig | Mapping) -> dict[int, int]:
+def requested_sizes(sizes: Mapping[Any, Any] | None) -> dict[int, int]:
     """`dataset.sizes` as {size: count}, sizes ascending (YAML or CLI keys may be strings)."""
-    sizes = dataset.get("sizes")
     if not sizes:
-        raise ValueError(
+        raise UserError(
             "dataset.sizes is empty; fix: set it (e.g. scale=smoke) to a mapping size → count"
         )
     out = {int(k): int(v) for k, v in sizes.items()}
     bad = {k: v for k, v in out.items() if k < 1 or v < 0}
     if bad:
-        raise ValueError(f"dataset.sizes has invalid entries {bad}; fix: sizes ≥ 1 and counts ≥ 0")
+        raise UserError(f"dataset.sizes has invalid entries {bad}; fix: sizes ≥ 1 and counts ≥ 0")
     return dict(sorted(out.items()))
 
 
@@ -104,29 +102,10 @@ def source_digest() -> str:
     return digest.hexdigest()[:16]
 
 
-def key_config(cfg: DictConfig) -> dict[str, Any]:
-    """The config that decides the data set's contents (what the cache key hashes)."""
-    dataset = OmegaConf.to_container(cfg.dataset, resolve=True)
-    return {
-        "format": FORMAT_VERSION,
-        "source": source_digest(),
-        "seed": int(cfg.seed),
-        "simulator": OmegaConf.to_container(cfg.simulator, resolve=True),
-        "dataset": {k: v for k, v in dataset.items() if k not in OPERATIONAL_KEYS},
-    }
-
-
-def dataset_dir(cfg: DictConfig) -> Path:
-    """`<paths.data_dir>/generated-<key>`; the key is a hash of :func:`key_config`."""
-    text = json.dumps(key_config(cfg), sort_keys=True, separators=(",", ":"))
-    key = hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
-    return Path(cfg.paths.data_dir).absolute() / f"{cfg.dataset.name}-{key}"
-
-
 def plan(sizes: Mapping[int, int], chunk_size: int) -> list[Chunk]:
     """All chunks of a data set, sizes ascending, then by start index."""
     if chunk_size < 1:
-        raise ValueError(f"dataset.chunk_size={chunk_size}; fix: use a positive chunk size")
+        raise UserError(f"dataset.chunk_size={chunk_size}; fix: use a positive chunk size")
     return [
         Chunk(size, start, min(start + chunk_size, count))
         for size, count in sorted(sizes.items())
@@ -167,9 +146,14 @@ def _write_chunk(
 _worker_simulator: Any = None
 
 
+def build_simulator(simulator_cfg: Mapping[str, Any]) -> Any:
+    """The simulator a config describes (`_target_` and its arguments)."""
+    return instantiate(OmegaConf.create(dict(simulator_cfg)))
+
+
 def _init_worker(simulator_cfg: dict[str, Any]) -> None:
     global _worker_simulator
-    _worker_simulator = instantiate(OmegaConf.create(simulator_cfg))
+    _worker_simulator = build_simulator(simulator_cfg)
 
 
 def _worker_chunk(args: tuple[int, Chunk, Path]) -> int:
@@ -177,13 +161,13 @@ def _worker_chunk(args: tuple[int, Chunk, Path]) -> int:
     return _write_chunk(_worker_simulator, seed, chunk, root)
 
 
-def _run(pending: list[Chunk], cfg: DictConfig, root: Path, workers: int) -> int:
+def _run(
+    pending: list[Chunk], simulator_cfg: dict[str, Any], seed: int, root: Path, workers: int
+) -> int:
     total = sum(c.stop - c.start for c in pending)
-    seed = int(cfg.seed)
-    simulator_cfg = OmegaConf.to_container(cfg.simulator, resolve=True)
     with tqdm(total=total, desc=f"generate {root.name}", unit="asm", dynamic_ncols=True) as bar:
         if workers <= 1 or len(pending) <= 1:
-            simulator = instantiate(OmegaConf.create(simulator_cfg))
+            simulator = build_simulator(simulator_cfg)
             return sum(_write_chunk(simulator, seed, c, root, bar) for c in pending)
         ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
         done = 0
@@ -196,39 +180,79 @@ def _run(pending: list[Chunk], cfg: DictConfig, root: Path, workers: int) -> int
         return done
 
 
-def generate(
-    cfg: DictConfig, shard: int | None = None, num_shards: int | None = None
-) -> Generation:
-    """Generate this run's share of the missing chunks of the data set `cfg` describes.
+@dataclass
+class GeneratedSource:
+    """A data set made by the simulator (`dataset=generated`), cached under `data_dir`.
 
-    `shard`/`num_shards` default to `dataset.shard`/`dataset.num_shards`. Returns where the data
-    set lives and how many of its chunks are still missing (other shards' share).
+    `simulator` is the simulator's config (`_target_` and arguments), not an instance: it is
+    hashed into the cache key and instantiated in every worker process. `sizes` (size → count),
+    `chunk_size`, `shard`, `num_shards` and `workers` decide how much is generated, where and
+    how fast, never what an assembly is: they stay out of the key.
     """
-    dataset = cfg.dataset
-    shard = int(dataset.get("shard", 0) if shard is None else shard)
-    num_shards = int(dataset.get("num_shards", 1) if num_shards is None else num_shards)
-    if not 0 <= shard < num_shards:
-        raise ValueError(
-            f"dataset.shard={shard}, dataset.num_shards={num_shards}; fix: 0 ≤ shard < num_shards"
-        )
-    root = dataset_dir(cfg)
-    chunks = plan(requested_sizes(dataset), int(dataset.chunk_size))
-    manifest = root / "config.json"
-    if not manifest.exists():
-        write_text_atomic(manifest, json.dumps(key_config(cfg), sort_keys=True, indent=2) + "\n")
-    mine = [
-        c for k, c in enumerate(chunks) if k % num_shards == shard and not c.path(root).exists()
-    ]
-    workers = int(dataset.get("workers", 1))
-    start = time.perf_counter()
-    generated = _run(mine, cfg, root, workers) if mine else 0
-    wall = time.perf_counter() - start
-    missing = sum(not c.path(root).exists() for c in chunks)
-    log.info(
-        "%s: %d assemblies generated in %.1f s wall (%d workers); %d of %d chunks missing",
-        root, generated, wall, workers, missing, len(chunks),
-    )  # fmt: skip
-    return Generation(root, chunks, generated, missing)
+
+    simulator: dict[str, Any]
+    seed: int
+    data_dir: str
+    sizes: dict[int, int] = field(default_factory=dict)
+    chunk_size: int = 200
+    shard: int = 0
+    num_shards: int = 1
+    workers: int = 1
+
+    def key_config(self) -> dict[str, Any]:
+        """What decides the data set's contents (what the cache key hashes)."""
+        return {
+            "format": FORMAT_VERSION,
+            "source": source_digest(),
+            "seed": int(self.seed),
+            "simulator": dict(self.simulator),
+            "dataset": {"name": "generated"},
+        }
+
+    @property
+    def path(self) -> Path:
+        """`<data_dir>/generated-<key>`; the key is a hash of :meth:`key_config`."""
+        text = json.dumps(self.key_config(), sort_keys=True, separators=(",", ":"))
+        key = hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
+        return Path(self.data_dir).absolute() / f"generated-{key}"
+
+    def generate(self, shard: int | None = None, num_shards: int | None = None) -> Generation:
+        """Generate this run's share of the missing chunks.
+
+        `shard`/`num_shards` default to the source's own. Returns where the data set lives and
+        how many of its chunks are still missing (other shards' share).
+        """
+        shard = self.shard if shard is None else shard
+        num_shards = self.num_shards if num_shards is None else num_shards
+        if not 0 <= shard < num_shards:
+            raise UserError(
+                f"dataset.shard={shard}, dataset.num_shards={num_shards}; "
+                "fix: 0 ≤ shard < num_shards"
+            )
+        root = self.path
+        chunks = plan(requested_sizes(self.sizes), self.chunk_size)
+        manifest = root / "config.json"
+        if not manifest.exists():
+            text = json.dumps(self.key_config(), sort_keys=True, indent=2) + "\n"
+            write_text_atomic(manifest, text)
+        mine = [
+            c for k, c in enumerate(chunks) if k % num_shards == shard and not c.path(root).exists()
+        ]
+        start = time.perf_counter()
+        simulator = dict(self.simulator)
+        generated = _run(mine, simulator, self.seed, root, self.workers) if mine else 0
+        wall = time.perf_counter() - start
+        missing = sum(not c.path(root).exists() for c in chunks)
+        log.info(
+            "%s: %d assemblies generated in %.1f s wall (%d workers); %d of %d chunks missing",
+            root, generated, wall, self.workers, missing, len(chunks),
+        )  # fmt: skip
+        return Generation(root, chunks, generated, missing)
+
+    def load(self) -> list[LabelledAssembly]:
+        """Generate whatever is missing (all shards' share) and load the data set."""
+        generation = self.generate(shard=0, num_shards=1)
+        return read_chunks(generation.path, generation.chunks)
 
 
 def read_chunks(root: Path, chunks: list[Chunk]) -> list[LabelledAssembly]:
@@ -244,9 +268,3 @@ def seconds_per_assembly(root: Path, chunks: list[Chunk]) -> dict[int, float]:
         if path.exists():
             by_size.setdefault(chunk.size, []).extend(json.loads(path.read_text())["seconds"])
     return {size: float(np.mean(s)) for size, s in sorted(by_size.items()) if s}
-
-
-def load_generated(cfg: DictConfig) -> list[LabelledAssembly]:
-    """Generate whatever is missing (all shards' share) and load the data set."""
-    generation = generate(cfg, shard=0, num_shards=1)
-    return read_chunks(generation.path, generation.chunks)

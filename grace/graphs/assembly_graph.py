@@ -1,4 +1,4 @@
-"""The Assembly Graph of SPEC §4, as a pure function of (Assembly, state).
+"""The Assembly Graph (paper Sec. IV-B, docs/assembly-graph.md) as a function of (Assembly, state).
 
 Everything that does not depend on the state is computed once per assembly into
 :class:`AssemblyTensors`; a state only sets the assembled flags. :func:`state_graph` builds the
@@ -6,7 +6,7 @@ per-state heterogeneous PyG graph the reference network consumes:
 - part nodes `[assembled-flag, part-type, PE(part-id)]` (1 + 1 + 16 = 18 features),
 - surface nodes `[surface-type, PE(surface-id)]` (1 + 16 = 17 features),
 - ("surface", "near", "surface"): the complete graph over surfaces including self loops, one edge
-  feature (the relation of SPEC §4, parallel distances divided by `distance_scale`, self loop 0),
+  feature (the relation: parallel distances divided by `distance_scale`, self loop 0),
 - ("surface", "of", "part"): each surface to its own part, no feature.
 """
 
@@ -63,7 +63,7 @@ def encode_assembly(
     training: bool = False,
     rng: np.random.Generator | None = None,
 ) -> AssemblyTensors:
-    """Node features and edge relations of `assembly` (SPEC §4); `rng` only for randomised `enc`."""
+    """Node features and edge relations of `assembly`; `rng` only for a randomised `enc`."""
     surfaces = assembly.surfaces()
     surface_part = np.array([s.part for s in surfaces], dtype=np.int64)
     surface_index = np.array([s.index for s in surfaces], dtype=np.int64)
@@ -90,7 +90,7 @@ def state_flags(states: np.ndarray, n_parts: int) -> torch.Tensor:
 
 
 def state_graph(tensors: AssemblyTensors, state: int) -> HeteroData:
-    """The per-state Assembly Graph (heterogeneous PyG data) of SPEC §4."""
+    """The Assembly Graph of `tensors` in `state`, as heterogeneous PyG data."""
     n, s = tensors.n_parts, tensors.n_surfaces
     data = HeteroData()
     flags = state_flags(np.array([state]), n)[0]

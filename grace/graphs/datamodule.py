@@ -1,4 +1,4 @@
-"""Per-state training samples of labelled assemblies, batched by assembly (SPEC §5, issue 3).
+"""Per-state training samples of labelled assemblies, batched by assembly (docs/training.md).
 
 A sample is one state of one assembly with its next-step labels (the `completable` mask: a part
 is a valid next step iff placing it still allows completion). `states="orders"` (default) takes
@@ -12,15 +12,16 @@ With `mixing="assembly"` (default) batches hold about `batch_size` states drawn 
 assemblies (large ones split into chunks), so that the fast path computes each surface embedding
 once per batch. `mixing="state"` draws states independently, as the reference's shuffled
 per-state data set does; batches then span many assemblies (states of one assembly still share
-its embedding within a batch). The collate step
-builds what the chosen network path consumes: per-state PyG graphs ("pyg") or padded per-assembly
-tensors ("fast").
+its embedding within a batch). The collate function, given by the network's implementation
+(`model.impl`), builds what that path consumes: per-state PyG graphs (:func:`collate_graphs`) or
+padded per-assembly tensors (:func:`collate_dense`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
+from enum import StrEnum
 
 import lightning.pytorch as pl
 import numpy as np
@@ -29,26 +30,45 @@ from torch.utils.data import DataLoader, Sampler
 from torch_geometric.data import Batch
 
 from grace.domain.assembly import full_mask
+from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
 from grace.graphs.assembly_graph import AssemblyTensors, encode_assembly, state_flags, state_graph
 from grace.graphs.dense import DenseAssemblies
 from grace.graphs.encoding import GraphEncoding
 
-STATE_SETS = ("orders", "reachable")
-MIXINGS = ("assembly", "state")
-IMPLS = ("fast", "pyg")
+
+class StateSet(StrEnum):
+    """Which states of an assembly are training samples (`datamodule.states`)."""
+
+    orders = "orders"
+    reachable = "reachable"
 
 
-def training_states(sample: LabelledAssembly, states: str) -> tuple[np.ndarray, np.ndarray]:
-    """(states, label masks) used for training on `sample`; see the module docstring."""
-    if states not in STATE_SETS:
-        raise ValueError(f"trainer.datamodule.states={states!r}: use one of {STATE_SETS}")
-    truth = sample.truth
-    if states == "orders":
-        chosen = truth.order_states()
-        return chosen, truth.completable[np.searchsorted(truth.states, chosen)]
+class Mixing(StrEnum):
+    """How batches mix states (`datamodule.mixing`); see the module docstring."""
+
+    assembly = "assembly"
+    state = "state"
+
+
+def _order_states(truth: GroundTruth) -> tuple[np.ndarray, np.ndarray]:
+    chosen = truth.order_states()
+    return chosen, truth.completable[np.searchsorted(truth.states, chosen)]
+
+
+def _reachable_states(truth: GroundTruth) -> tuple[np.ndarray, np.ndarray]:
     keep = truth.states != full_mask(truth.n_parts)
     return truth.states[keep], truth.completable[keep]
+
+
+_STATE_SETS = {StateSet.orders: _order_states, StateSet.reachable: _reachable_states}
+
+
+def training_states(
+    sample: LabelledAssembly, states: StateSet | str
+) -> tuple[np.ndarray, np.ndarray]:
+    """(states, label masks) used for training on `sample`; see the module docstring."""
+    return _STATE_SETS[StateSet(states)](sample.truth)
 
 
 @dataclass
@@ -66,30 +86,47 @@ class StateBatch:
         return self.flags.shape[0]
 
 
-def collate_states(
+Collate = Callable[
+    [Sequence[AssemblyTensors], Sequence[np.ndarray], Sequence[np.ndarray]], StateBatch
+]
+"""(per-assembly tensors, their state bitmasks, their label bitmasks) → one batch."""
+
+
+def _state_batch(
+    inputs: object,
     tensors: Sequence[AssemblyTensors],
     states: Sequence[np.ndarray],
     labels: Sequence[np.ndarray],
-    impl: str,
 ) -> StateBatch:
-    """Build one batch from per-assembly tensors and their state / label bitmasks."""
-    if impl not in IMPLS:
-        raise ValueError(f"model.impl={impl!r}: use one of {IMPLS}")
     n = max(t.n_parts for t in tensors)
-    all_states = np.concatenate(states)
     state_assembly = torch.cat(
         [torch.full((len(s),), i, dtype=torch.long) for i, s in enumerate(states)]
     )
     sizes = torch.tensor([t.n_parts for t in tensors])[state_assembly]
     mask = torch.arange(n).unsqueeze(0) < sizes.unsqueeze(1)
-    flags = state_flags(all_states, n) * mask
+    flags = state_flags(np.concatenate(states), n) * mask
     y = state_flags(np.concatenate(labels), n) * mask
-    if impl == "fast":
-        inputs: object = DenseAssemblies.stack(list(tensors))
-    else:
-        pairs = zip(state_assembly.tolist(), all_states.tolist(), strict=True)
-        inputs = Batch.from_data_list([state_graph(tensors[a], s) for a, s in pairs])
     return StateBatch(inputs, state_assembly, flags, y, mask)
+
+
+def collate_dense(
+    tensors: Sequence[AssemblyTensors],
+    states: Sequence[np.ndarray],
+    labels: Sequence[np.ndarray],
+) -> StateBatch:
+    """One batch whose inputs are the assemblies' padded tensors (the fast path)."""
+    return _state_batch(DenseAssemblies.stack(list(tensors)), tensors, states, labels)
+
+
+def collate_graphs(
+    tensors: Sequence[AssemblyTensors],
+    states: Sequence[np.ndarray],
+    labels: Sequence[np.ndarray],
+) -> StateBatch:
+    """One batch whose inputs are the per-state PyG graphs (the reference path)."""
+    pairs = zip(tensors, states, strict=True)
+    graphs = [state_graph(t, int(s)) for t, group in pairs for s in group]
+    return _state_batch(Batch.from_data_list(graphs), tensors, states, labels)
 
 
 class AssemblyBatchSampler(Sampler[list[int]]):
@@ -133,7 +170,7 @@ class StateDataset:
         self,
         samples: Sequence[LabelledAssembly],
         enc: GraphEncoding,
-        states: str,
+        states: StateSet | str,
         chunk_size: int,
         training: bool,
         seed: int,
@@ -169,12 +206,12 @@ class StateDataset:
 
 
 def make_loader(
-    dataset: StateDataset, impl: str, batch_size: int, shuffle: bool, seed: int
+    dataset: StateDataset, collate: Collate, batch_size: int, shuffle: bool, seed: int
 ) -> DataLoader:
     """A DataLoader over `dataset` batched by assembly; runs in the main process (seeded)."""
     sampler = AssemblyBatchSampler(dataset.chunk_sizes(), batch_size, shuffle, seed)
 
-    def collate(items: list[tuple[AssemblyTensors, np.ndarray, np.ndarray]]) -> StateBatch:
+    def merge(items: list[tuple[AssemblyTensors, np.ndarray, np.ndarray]]) -> StateBatch:
         groups: dict[int, tuple[AssemblyTensors, list[np.ndarray], list[np.ndarray]]] = {}
         for tensors, s, y in items:  # chunks of one assembly share its tensors: merge them
             group = groups.setdefault(id(tensors), (tensors, [], []))
@@ -183,35 +220,37 @@ def make_loader(
         tensors = [g[0] for g in groups.values()]
         states = [np.concatenate(g[1]) for g in groups.values()]
         labels = [np.concatenate(g[2]) for g in groups.values()]
-        return collate_states(tensors, states, labels, impl)
+        return collate(tensors, states, labels)
 
-    return DataLoader(dataset, batch_sampler=sampler, collate_fn=collate, num_workers=0)
+    return DataLoader(dataset, batch_sampler=sampler, collate_fn=merge, num_workers=0)
 
 
 class StateDataModule(pl.LightningDataModule):
-    """Lightning DataModule serving per-state samples of the chosen train / val assemblies."""
+    """Lightning DataModule serving per-state samples of the chosen train / val assemblies.
+
+    Built from the `datamodule` config group with `_partial_`: the config gives the sampling
+    settings, the caller the assemblies, the model's graph encoding and its collate function.
+    """
 
     def __init__(
         self,
         train: Sequence[LabelledAssembly],
         val: Sequence[LabelledAssembly],
         enc: GraphEncoding,
-        impl: str = "fast",
-        states: str = "reachable",
+        collate: Collate = collate_dense,
+        states: StateSet = StateSet.reachable,
         batch_size: int = 256,
         seed: int = 0,
-        mixing: str = "assembly",
+        mixing: Mixing = Mixing.assembly,
     ) -> None:
         super().__init__()
-        if mixing not in MIXINGS:
-            raise ValueError(f"trainer.datamodule.mixing={mixing!r}: use one of {MIXINGS}")
-        self.impl, self.batch_size, self.seed = impl, batch_size, seed
-        chunk = batch_size if mixing == "assembly" else 1
+        self.collate, self.batch_size, self.seed = collate, batch_size, seed
+        chunk = batch_size if Mixing(mixing) is Mixing.assembly else 1
         self.train_set = StateDataset(train, enc, states, chunk, True, seed)
         self.val_set = StateDataset(val, enc, states, batch_size, False, seed)
 
     def train_dataloader(self) -> DataLoader:
-        return make_loader(self.train_set, self.impl, self.batch_size, True, self.seed)
+        return make_loader(self.train_set, self.collate, self.batch_size, True, self.seed)
 
     def val_dataloader(self) -> DataLoader:
-        return make_loader(self.val_set, self.impl, self.batch_size, False, self.seed)
+        return make_loader(self.val_set, self.collate, self.batch_size, False, self.seed)

@@ -1,10 +1,12 @@
-"""Node identities of the Assembly Graph and their positional encodings (SPEC §4, §9 ablation).
+"""Node identities of the Assembly Graph and their positional encodings (paper Sec. IV-B, V-D).
 
-Part ids are the canonical part indices (SPEC §2: numbered from the part closest to the origin);
-surface ids are the surface's 1-based index on its own part (clockwise from the part's top), so the
-id says which side of a part a surface is. Both are encoded with a 16-d sinusoidal encoding.
+Part ids are the canonical part indices (numbered from the part closest to the origin, paper
+Sec. V-D; docs/assembly-graph.md); surface ids are the surface's 1-based index on its own part
+(clockwise from the part's top), so the id says which side of a part a surface is. Both are
+encoded with a 16-d sinusoidal encoding.
 
-The ablation variants of SPEC §9 are options here, not code forks:
+The ablation variants of the paper's Table 4 (docs/paper-results.md) are options here, not code
+forks:
 - `pe`: "sinusoidal" (paper), "random" (fresh N(0,1) values per graph instead of the encoding) or
   "none" (zeros, so the network keeps its shape and parameter count);
 - `permute_parts` / `permute_surfaces`: "never", "test" (only when evaluating) or "train_test"
@@ -19,12 +21,33 @@ part a surface is) stay informative at any size.
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 from dataclasses import dataclass
+from enum import StrEnum
 
 import numpy as np
 
-PE_KINDS = ("sinusoidal", "random", "none")
-PERMUTE_MODES = ("never", "test", "train_test")
+from grace.errors import UserError
+
+
+class PE(StrEnum):
+    """How node ids become features (`model.graph.pe`, `model.graph.part_pe`)."""
+
+    sinusoidal = "sinusoidal"
+    random = "random"
+    none = "none"
+
+
+class Permute(StrEnum):
+    """When node ids are relabelled at random (`model.graph.permute_parts` / `_surfaces`)."""
+
+    never = "never"
+    test = "test"
+    train_test = "train_test"
+
+    def applies(self, training: bool) -> bool:
+        """Whether ids are permuted when encoding for training (True) or evaluation (False)."""
+        return self is Permute.train_test or (self is Permute.test and not training)
 
 
 def sinusoidal_pe(ids: np.ndarray, dim: int) -> np.ndarray:
@@ -64,46 +87,50 @@ class GraphEncoding:
     reference does. The codes for same-part (1), orthogonal (−1) and self loop (0) are not scaled.
     """
 
-    pe: str = "sinusoidal"
+    pe: PE = PE.sinusoidal
     pe_dim: int = 16
-    permute_parts: str = "never"
-    permute_surfaces: str = "never"
+    permute_parts: Permute = Permute.never
+    permute_surfaces: Permute = Permute.never
     distance_scale: float = 100.0
-    part_pe: str | None = None
+    part_pe: PE | None = None
 
     def __post_init__(self) -> None:
-        for key in ("pe", "part_pe"):
-            value = getattr(self, key)
-            if value not in PE_KINDS and not (key == "part_pe" and value is None):
-                raise ValueError(f"model.graph.{key}={value!r}: use one of {PE_KINDS}")
-        for key in ("permute_parts", "permute_surfaces"):
-            if getattr(self, key) not in PERMUTE_MODES:
-                raise ValueError(f"model.graph.{key}={getattr(self, key)!r}: use {PERMUTE_MODES}")
+        # Plain strings (a config without its schema, or a call from code) become the enums.
+        for key, kind in (("pe", PE), ("permute_parts", Permute), ("permute_surfaces", Permute)):
+            object.__setattr__(self, key, kind(getattr(self, key)))
+        if self.part_pe is not None:
+            object.__setattr__(self, "part_pe", PE(self.part_pe))
         if self.distance_scale <= 0:
-            raise ValueError("model.graph.distance_scale must be > 0 (mm per unit)")
+            raise UserError(
+                f"model.graph.distance_scale={self.distance_scale}: use a positive scale "
+                "(mm per unit)"
+            )
 
     @property
     def randomised(self) -> bool:
         """True when encoding an assembly twice can give different inputs (needs an rng)."""
         return (
-            "random" in (self.pe, self.part_pe)
-            or self.permute_parts != "never"
-            or self.permute_surfaces != "never"
+            PE.random in (self.pe, self.part_pe)
+            or self.permute_parts is not Permute.never
+            or self.permute_surfaces is not Permute.never
         )
 
-    def permutes(self, mode: str, training: bool) -> bool:
-        return mode == "train_test" or (mode == "test" and not training)
-
     def encode(
-        self, ids: np.ndarray, rng: np.random.Generator | None, kind: str | None = None
+        self, ids: np.ndarray, rng: np.random.Generator | None, kind: PE | None = None
     ) -> np.ndarray:
         """Encode integer ids as `pe_dim` features according to `kind` (default `pe`)."""
-        kind = kind or self.pe
-        if kind == "sinusoidal":
-            return sinusoidal_pe(ids, self.pe_dim)
-        if kind == "none":
-            return np.zeros((len(ids), self.pe_dim))
-        return _require(rng).standard_normal((len(ids), self.pe_dim))
+        return _ENCODERS[kind or self.pe](np.asarray(ids), self.pe_dim, rng)
+
+
+def _random_pe(ids: np.ndarray, dim: int, rng: np.random.Generator | None) -> np.ndarray:
+    return _require(rng).standard_normal((len(ids), dim))
+
+
+_ENCODERS: dict[PE, Callable[[np.ndarray, int, np.random.Generator | None], np.ndarray]] = {
+    PE.sinusoidal: lambda ids, dim, rng: sinusoidal_pe(ids, dim),
+    PE.random: _random_pe,
+    PE.none: lambda ids, dim, rng: np.zeros((len(ids), dim)),
+}
 
 
 def node_ids(
@@ -117,9 +144,9 @@ def node_ids(
     """Part ids (0..N−1) and surface ids (1..k on each part), permuted as `enc` asks."""
     part_ids = np.arange(n_parts)
     surface_ids = np.asarray(surface_index).copy()
-    if enc.permutes(enc.permute_parts, training):
+    if enc.permute_parts.applies(training):
         part_ids = _require(rng).permutation(n_parts)
-    if enc.permutes(enc.permute_surfaces, training):
+    if enc.permute_surfaces.applies(training):
         for p in range(n_parts):
             own = np.flatnonzero(part_of_surface == p)
             surface_ids[own] = surface_ids[own][_require(rng).permutation(len(own))]

@@ -1,12 +1,12 @@
 """The fast exact path of GRACE: one surface embedding per assembly, dense padded attention.
 
-The surface blocks never see the state (SPEC §4–5: no assembled flag in surface features or
-surface edges), so all states of an assembly share one surface embedding. The part block's
-attention for part i depends on the state only through i's own flag, which is 0 or 1: we compute
-both possible part-block outputs once per assembly, and a state just selects between them before
-the per-state InstanceNorm, tanh and head. The surface graph is complete, so its attention runs
-on dense (assemblies × surfaces × surfaces) tensors. Same parameters as :class:`GraceNet`
-(equality with the PyG path is tested to 1e-5).
+The surface blocks never see the state (docs/assembly-graph.md: no assembled flag in surface
+features or surface edges), so all states of an assembly share one surface embedding. The part
+block's attention for part i depends on the state only through i's own flag, which is 0 or 1: we
+compute both possible part-block outputs once per assembly, and a state just selects between
+them before the per-state InstanceNorm, tanh and head. The surface graph is complete, so its
+attention runs on dense (assemblies × surfaces × surfaces) tensors. Same parameters as
+:class:`GraceNet` (equality with the PyG path is tested to 1e-5).
 
 The non-paper variant `state_blocks = k` (grace_pyg.NetConfig) shares only the first
 `surface_blocks − k` blocks across states; the last k blocks and the part block run once per

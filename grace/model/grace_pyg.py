@@ -1,4 +1,6 @@
-"""GRACE (SPEC §5) on PyTorch Geometric: the reference per-state path and the shared weights.
+"""GRACE on PyTorch Geometric: the reference per-state path and the shared weights.
+
+The network of paper Sec. IV-C (docs/training.md).
 
 Block = GATv2 attention conv → InstanceNorm (affine, no running stats) → tanh.
 Surface blocks: GATv2 on the complete surface graph (edge_dim 1, self loops filled with 0).
@@ -18,6 +20,7 @@ from torch import nn
 from torch_geometric.data import Batch, HeteroData
 from torch_geometric.nn import GATv2Conv, HeteroConv, InstanceNorm
 
+from grace.errors import UserError
 from grace.graphs.assembly_graph import PART_EDGE, SURFACE_EDGE
 
 
@@ -53,13 +56,14 @@ class NetConfig:
 
     def __post_init__(self) -> None:
         if not 0 <= self.state_blocks <= self.surface_blocks:
-            raise ValueError(
-                f"model.state_blocks={self.state_blocks}: use 0 to model.surface_blocks="
+            raise UserError(
+                f"model.net.state_blocks={self.state_blocks}: use 0 to model.net.surface_blocks="
                 f"{self.surface_blocks}"
             )
         if self.readout_rounds < 1 or (self.readout_rounds > 1 and not self.pair_readout):
-            raise ValueError(
-                f"model.readout_rounds={self.readout_rounds}: use 1, or more with pair_readout > 0"
+            raise UserError(
+                f"model.net.readout_rounds={self.readout_rounds}: use 1, or more with "
+                "model.net.pair_readout > 0"
             )
 
     @property
@@ -203,5 +207,5 @@ def _batch_vector(data: HeteroData | Batch, node_type: str) -> torch.Tensor:
 
 
 def count_parameters(net: nn.Module) -> int:
-    """Number of trainable parameters (SPEC §5: 51.7 K at the paper's configuration)."""
+    """Number of trainable parameters (51.7 K at the paper's configuration, Sec. V-A3)."""
     return sum(p.numel() for p in net.parameters() if p.requires_grad)

@@ -1,4 +1,4 @@
-"""The GRACE loss of SPEC §5, per part node."""
+"""The GRACE loss per part node (paper Eq. 4–5, docs/training.md)."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ def grace_loss(
 ) -> torch.Tensor:
     """Mean over real part nodes of (1−δ)·BCE(y, ŷ) + δ·ŷ·assembled-flag.
 
-    The regulariser pushes scores of already placed parts to 0 (SPEC §5); BCE is computed from
+    The regulariser pushes scores of already placed parts to 0 (paper Eq. 5); BCE is computed from
     logits for numerical stability, which is the same function as BCE on the sigmoid.
     """
     bce = F.binary_cross_entropy_with_logits(logits, labels, reduction="none")

@@ -1,84 +1,85 @@
-"""GRACE as a LightningModule: loss, optimiser and validation step-AUC of SPEC §5 / §7."""
+"""GRACE as a LightningModule: loss, optimiser and the logged step AUC (docs/training.md).
+
+Built by `hydra.utils.instantiate(cfg.model)`: the `model` config group gives the network shape
+(`net`), the Assembly Graph encoding (`graph`), the implementation (`impl`), the loss weight and
+the optimiser and lr scheduler as partials. Every argument is stored in the checkpoint, so
+`GraceModule.load_from_checkpoint(path, weights_only=False)` rebuilds the module without the
+config (the arguments are objects, hence `weights_only=False`: load only checkpoints you trust).
+"""
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Iterable
 from typing import Any
 
 import lightning.pytorch as pl
-import numpy as np
 import torch
+from torchmetrics.functional.classification import binary_precision_recall_curve
+from torchmetrics.utilities.compute import auc
 
-from grace.evaluation.metrics import step_auc
-from grace.graphs.datamodule import IMPLS, StateBatch
-from grace.graphs.dense import DenseAssemblies
+from grace.graphs.datamodule import StateBatch
 from grace.graphs.encoding import GraphEncoding
-from grace.model.grace_fast import fast_logits
 from grace.model.grace_pyg import GraceNet, NetConfig
+from grace.model.impls import NetImpl
 from grace.model.loss import grace_loss
 
+Optimizer = Callable[[Iterable[torch.nn.Parameter]], torch.optim.Optimizer]
+"""The optimiser without its parameters (a `_partial_` config)."""
 
-def net_config(model: Mapping[str, Any]) -> NetConfig:
-    """Network shape from the `model` config group."""
-    return NetConfig(
-        hidden=int(model["hidden"]),
-        surface_blocks=int(model["surface_blocks"]),
-        negative_slope=float(model["negative_slope"]),
-        pe_dim=int(model["graph"]["pe_dim"]),
-        state_blocks=int(model.get("state_blocks", 0)),
-        pair_readout=int(model.get("pair_readout", 0)),
-        readout_rounds=int(model.get("readout_rounds", 1)),
-    )
+Scheduler = Callable[[torch.optim.Optimizer], Any]
+"""The lr scheduler without its optimiser (a `_partial_` config)."""
 
 
-def graph_encoding(model: Mapping[str, Any]) -> GraphEncoding:
-    """Assembly Graph encoding (PE kind, permutations, distance scale) from `model.graph`."""
-    return GraphEncoding(**dict(model["graph"]))
+def step_auc(scores: torch.Tensor, labels: torch.Tensor) -> torch.Tensor | None:
+    """Step AUC (docs/metrics.md): area under the precision–recall curve of part scores against
+    next-step labels; None without a positive label. torchmetrics computes it the way evaluation
+    does with scikit-learn, so the model needs no evaluation code."""
+    if not labels.any():
+        return None
+    precision, recall, _ = binary_precision_recall_curve(scores, labels.long())
+    return auc(recall, precision)
 
 
 class GraceModule(pl.LightningModule):
-    """The GRACE network with its training objective; `impl` picks the fast or PyG path.
+    """The GRACE network with its training objective.
 
-    `model` is the plain dict of the `model` config group (stored in the checkpoint).
+    `monitor` is the logged metric the lr scheduler watches (early stopping watches the same one:
+    both follow the config's `monitor`). `seed` seeds randomised evaluation encodings (scoring.py).
+    `name` is the model variant, recorded with the results.
     """
 
     def __init__(
         self,
-        model: dict[str, Any],
-        lr: float = 0.0022,
+        net: NetConfig,
+        graph: GraphEncoding,
+        impl: NetImpl,
+        optimizer: Optimizer,
+        scheduler: Scheduler | None = None,
+        delta: float = 0.3,
+        monitor: str = "val_loss",
         seed: int = 0,
-        lr_decay: dict[str, Any] | None = None,
+        name: str = "grace",
     ) -> None:
         super().__init__()
-        self.save_hyperparameters()
-        if model["impl"] not in IMPLS:
-            raise ValueError(f"model.impl={model['impl']!r}: use one of {IMPLS}")
-        self.net = GraceNet(net_config(model))
-        self.enc = graph_encoding(model)
-        self.impl: str = model["impl"]
-        self.delta = float(model["delta"])
-        self.lr = lr
+        self.save_hyperparameters(logger=False)
+        self.net = GraceNet(net)
+        self.enc = graph
+        self.impl = impl
+        self.delta = delta
         self.seed = seed
-        self.lr_decay = lr_decay
-        # What the lr decay watches; fit() sets them to the early-stopping monitor.
-        self.monitor, self.monitor_mode = "val_loss", "min"
-        self._outputs: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {"train": [], "val": []}
+        self.name = name
+        self._outputs: dict[str, list[tuple[torch.Tensor, torch.Tensor]]] = {"train": [], "val": []}
 
     def forward(self, batch: StateBatch) -> torch.Tensor:
         """Part logits (T, N) of the batch's states; padding entries are meaningless."""
-        if isinstance(batch.inputs, DenseAssemblies):
-            return fast_logits(self.net, batch.inputs, batch.state_assembly, batch.flags)
-        flat = self.net(batch.inputs)
-        out = flat.new_zeros(batch.mask.shape)
-        out[batch.mask] = flat
-        return out
+        return self.impl.logits(self.net, batch)
 
     def _step(self, batch: StateBatch, stage: str) -> torch.Tensor:
         logits = self(batch)
         loss = grace_loss(logits, batch.labels, batch.flags, batch.mask, self.delta)
         self.log(f"{stage}_loss", loss, on_epoch=True, on_step=False, batch_size=batch.n_states)
-        scores = torch.sigmoid(logits.detach())[batch.mask].numpy()
-        self._outputs[stage].append((scores, batch.labels[batch.mask].numpy()))
+        scores = torch.sigmoid(logits.detach())[batch.mask]
+        self._outputs[stage].append((scores, batch.labels[batch.mask]))
         return loss
 
     def training_step(self, batch: StateBatch, batch_idx: int) -> torch.Tensor:
@@ -90,8 +91,9 @@ class GraceModule(pl.LightningModule):
     def _log_auc(self, stage: str) -> None:
         outputs = self._outputs[stage]
         if outputs:
-            scores, labels = (np.concatenate(x) for x in zip(*outputs, strict=True))
-            self.log(f"{stage}_step_auc", step_auc(scores, labels))
+            value = step_auc(*(torch.cat(x) for x in zip(*outputs, strict=True)))
+            if value is not None:
+                self.log(f"{stage}_step_auc", value)
         outputs.clear()
 
     def on_train_epoch_end(self) -> None:
@@ -101,18 +103,13 @@ class GraceModule(pl.LightningModule):
         self._log_auc("val")
 
     def configure_optimizers(self) -> Any:
-        """Adam at the paper's lr; with `lr_decay` (not in SPEC §5) the lr is multiplied by
-        `factor` whenever the monitored loss has not improved for `patience` epochs."""
-        optimiser = torch.optim.Adam(self.parameters(), lr=self.lr)
-        if not self.lr_decay:
-            return optimiser
-        decay = torch.optim.lr_scheduler.ReduceLROnPlateau(
-            optimiser,
-            mode=self.monitor_mode,
-            factor=float(self.lr_decay["factor"]),
-            patience=int(self.lr_decay["patience"]),
-        )
+        """The configured optimiser; with a scheduler (ours: halve the lr on a plateau of the
+        monitored metric, not in the paper) the scheduler watches `monitor`."""
+        optimizer = self.hparams.optimizer(self.parameters())
+        if self.hparams.scheduler is None:
+            return optimizer
+        scheduler = self.hparams.scheduler(optimizer)
         return {
-            "optimizer": optimiser,
-            "lr_scheduler": {"scheduler": decay, "monitor": self.monitor},
+            "optimizer": optimizer,
+            "lr_scheduler": {"scheduler": scheduler, "monitor": self.hparams.monitor},
         }

@@ -1,10 +1,11 @@
 """Next-step scores for planning: all states of an assembly share one surface embedding.
 
-`make_scorer(module)(assembly, states)` returns the (len(states), n_parts) scores of SPEC §6's
-policy for many states at once; the per-assembly work (surface blocks and both part-block
-variants, see grace_fast.py) is cached, so scoring the 2^N − 1 distinct states of Algorithm 1 costs
-one surface pass plus a small per-state step. Randomised test-time encodings (SPEC §9 ablation)
-are seeded by the module's seed and the assembly's content, so repeated calls agree.
+`make_scorer(module)(assembly, states)` returns the (len(states), n_parts) next-step scores of the
+policy (paper Sec. IV-C) for many states at once; the per-assembly work (surface blocks and both
+part-block variants, see grace_fast.py) is cached, so scoring the 2^N − 1 distinct states of
+Algorithm 1 costs one surface pass plus a small per-state step. Randomised test-time encodings
+(the paper's ablation, Table 4) are seeded by the module's seed and the assembly's content, so
+repeated calls agree.
 """
 
 from __future__ import annotations
@@ -14,13 +15,10 @@ from collections import OrderedDict
 
 import numpy as np
 import torch
-from torch_geometric.data import Batch
 
 from grace.domain.assembly import Assembly
-from grace.graphs.assembly_graph import AssemblyTensors, encode_assembly, state_flags, state_graph
-from grace.graphs.dense import DenseAssemblies
-from grace.model.grace_fast import SharedWork, shared_work, state_features
-from grace.model.grace_pyg import GraceNet
+from grace.graphs.assembly_graph import AssemblyTensors, encode_assembly
+from grace.model.impls import FastImpl, NetImpl, PreparedAssembly
 from grace.model.module import GraceModule
 
 
@@ -41,23 +39,23 @@ def evaluation_tensors(module: GraceModule, assembly: Assembly) -> AssemblyTenso
 class Scorer:
     """Callable `scorer(assembly, states) -> scores` with a small per-assembly cache."""
 
-    def __init__(self, module: GraceModule, impl: str | None = None, cache_size: int = 64):
+    def __init__(self, module: GraceModule, impl: NetImpl | None = None, cache_size: int = 64):
         self.module = module.eval()
         self.impl = impl or module.impl
         self.cache_size = cache_size
         # Keyed by id(); the entry keeps the assembly alive, so the id cannot be reused meanwhile.
-        self._cache: OrderedDict[int, _Prepared] = OrderedDict()
+        self._cache: OrderedDict[int, PreparedAssembly] = OrderedDict()
 
     def clear(self) -> None:
         """Forget every cached assembly (the next call on any assembly starts cold)."""
         self._cache.clear()
 
-    def _prepared(self, assembly: Assembly) -> _Prepared:
+    def _prepared(self, assembly: Assembly) -> PreparedAssembly:
         hit = self._cache.get(id(assembly))
         if hit is not None and hit.assembly is assembly:
             self._cache.move_to_end(id(assembly))
             return hit
-        prepared = _Prepared(assembly, evaluation_tensors(self.module, assembly))
+        prepared = PreparedAssembly(assembly, evaluation_tensors(self.module, assembly))
         self._cache[id(assembly)] = prepared
         if len(self._cache) > self.cache_size:
             self._cache.popitem(last=False)
@@ -65,47 +63,22 @@ class Scorer:
 
     @torch.inference_mode()
     def part_features(self, assembly: Assembly, states: np.ndarray) -> torch.Tensor:
-        """Part features after the part block (fast path), (len(states), n_parts, hidden)."""
-        net = self.module.net
-        prepared = self._prepared(assembly)
-        flags = state_flags(states, assembly.n_parts)
-        index = torch.zeros(len(flags), dtype=torch.long)
-        return state_features(net, prepared.dense, index, flags, prepared.shared(net))
+        """Part features before the head (fast path), (len(states), n_parts, hidden)."""
+        return self._prepared(assembly).part_features(self.module.net, states)
 
     @torch.inference_mode()
     def __call__(self, assembly: Assembly, states: np.ndarray) -> np.ndarray:
         states = np.asarray(states, dtype=np.int64).reshape(-1)
-        net = self.module.net
-        if self.impl == "fast":
-            logits = net.head(self.part_features(assembly, states)).squeeze(-1)
-        else:
-            tensors = self._prepared(assembly).tensors
-            batch = Batch.from_data_list([state_graph(tensors, int(s)) for s in states])
-            logits = net(batch).view(len(states), assembly.n_parts)
+        logits = self.impl.assembly_logits(self.module.net, self._prepared(assembly), states)
         return torch.sigmoid(logits).numpy().astype(np.float64)
 
 
-class _Prepared:
-    """Per-assembly cache entry: encoded tensors and, once needed, the states' shared work."""
-
-    def __init__(self, assembly: Assembly, tensors: AssemblyTensors) -> None:
-        self.assembly = assembly
-        self.tensors = tensors
-        self.dense = DenseAssemblies.stack([tensors])
-        self._shared: SharedWork | None = None
-
-    def shared(self, net: GraceNet) -> SharedWork:
-        if self._shared is None:
-            self._shared = shared_work(net, self.dense)
-        return self._shared
-
-
-def make_scorer(module: GraceModule, impl: str | None = None) -> Scorer:
-    """Scorer over `module` (the fast shared-embedding path unless `impl="pyg"`)."""
+def make_scorer(module: GraceModule, impl: NetImpl | None = None) -> Scorer:
+    """Scorer over `module` on its own implementation, or on `impl` if given."""
     return Scorer(module, impl)
 
 
 def part_embeddings(module: GraceModule, assembly: Assembly, state: int = 0) -> np.ndarray:
     """Part node features (n_parts, hidden) after the part block, for mean-pooled classifiers."""
-    feats = Scorer(module, "fast", 1).part_features(assembly, np.array([state]))
+    feats = Scorer(module, FastImpl(), 1).part_features(assembly, np.array([state]))
     return feats[0].numpy().astype(np.float64)

@@ -154,11 +154,11 @@ class SimulatorConfig:
 
 
 def register() -> None:
-    """Store the schemas the yaml files extend (idempotent; `import grace` calls it)."""
+    """Store the schemas the simulator yaml files extend (idempotent; also run on import)."""
     store = ConfigStore.instance()
-    store.store(group="simulator", name="schema", node=SimulatorConfig)
-    store.store(group="simulator/cell", name="schema", node=CellConfig)
-    store.store(group="simulator/generator", name="schema", node=GeneratorConfig)
+    store.store(group="schema", name="simulator", node=SimulatorConfig)
+    store.store(group="schema/simulator", name="cell", node=CellConfig)
+    store.store(group="schema/simulator", name="generator", node=GeneratorConfig)
 
 
 T = TypeVar("T")

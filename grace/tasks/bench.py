@@ -1,14 +1,14 @@
-"""`python -m grace task=bench`: training and inference speed of the PyG and fast paths (issue 3).
+"""`python -m grace task=bench`: training and inference speed of the PyG and fast paths.
 
 Side by side in one run, same weights, `cfg.threads` threads:
-- training: optimiser steps on batches of ≈`trainer.batch_size` A5 state graphs, timed from the
+- training: optimiser steps on batches of ≈`datamodule.batch_size` A5 state graphs, timed from the
   per-assembly encodings (collation into PyG graphs or padded tensors included) through the
   backward pass and Adam step; figure = state graphs per second;
 - inference: one A7 state per call, end to end from the Assembly (encoding, graph, forward);
   "cold" empties the scorer's per-assembly cache before every call, "warm" reuses the
   per-assembly cache that planning over many states of one assembly enjoys (fast path only;
   the PyG path has no shared work);
-- planning (issue 4, grace.planning.bench): scoring every order of one A7 assembly via its
+- planning (grace.planning.bench): scoring every order of one A7 assembly via its
   distinct states versus the per-prefix recursion, with each path's scorer (untrained weights:
   timing only; prefix passes capped at `task.prefix_passes` and extrapolated).
 Writes `bench.json` into the run's output folder and returns the fast/PyG training speed-up.
@@ -19,24 +19,41 @@ from __future__ import annotations
 import json
 import logging
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import torch
 from hydra.utils import instantiate
-from omegaconf import DictConfig
+from omegaconf import MISSING, DictConfig
 
 from grace.data.atomic import write_text_atomic
 from grace.domain.sample import LabelledAssembly
-from grace.graphs.datamodule import StateDataset, collate_states
+from grace.graphs.datamodule import StateDataset
 from grace.model.grace_pyg import count_parameters
+from grace.model.impls import FastImpl, NetImpl, PygImpl
 from grace.model.loss import grace_loss
 from grace.model.module import GraceModule
 from grace.model.scoring import make_scorer
-from grace.model.training import make_module
 from grace.planning.bench import planner_benchmark
+from grace.tasks.runner import TaskSettings
 
 log = logging.getLogger(__name__)
+
+IMPLS: tuple[NetImpl, ...] = (PygImpl(), FastImpl())
+"""Both implementations, measured side by side on the same weights."""
+
+
+@dataclass
+class BenchSettings(TaskSettings):
+    """Schema of `task=bench` (values in grace/conf/task/bench.yaml)."""
+
+    train_size: int = MISSING
+    infer_size: int = MISSING
+    assemblies: int = MISSING
+    train_steps: int = MISSING
+    infer_calls: int = MISSING
+    prefix_passes: int = MISSING
 
 
 def bench_assemblies(
@@ -82,7 +99,7 @@ def train_graphs_per_s(
         items = [dataset[k] for k in batches[step % len(batches)]]
         start = time.perf_counter()
         tensors, states, labels = zip(*items, strict=True)
-        batch = collate_states(tensors, states, labels, module.impl)
+        batch = module.impl.collate(tensors, states, labels)
         loss = grace_loss(module(batch), batch.labels, batch.flags, batch.mask, module.delta)
         optimiser.zero_grad()
         loss.backward()
@@ -93,7 +110,7 @@ def train_graphs_per_s(
 
 
 def infer_ms_per_state(
-    module: GraceModule, samples: list[LabelledAssembly], impl: str, calls: int, warm: bool
+    module: GraceModule, samples: list[LabelledAssembly], impl: NetImpl, calls: int, warm: bool
 ) -> float:
     """Median milliseconds per single-state scorer call on the non-final states of `samples`."""
     pairs = [(s.assembly, int(st)) for s in samples for st in s.truth.states[:-1]]
@@ -117,36 +134,35 @@ def run(cfg: DictConfig) -> float:
     train_size, infer_size = int(cfg.task.train_size), int(cfg.task.infer_size)
     train = bench_assemblies(cfg, train_size, rng)
     infer = bench_assemblies(cfg, infer_size, rng)
-    module = make_module(cfg)
+    module = instantiate(cfg.model)
     torch.set_num_threads(int(cfg.threads))
-    batch_size = int(cfg.trainer.batch_size)
-    states = cfg.trainer.datamodule.states
+    batch_size = int(cfg.datamodule.batch_size)
+    states = cfg.datamodule.states
     dataset = StateDataset(train, module.enc, states, batch_size, True, int(cfg.seed))
     state = {k: v.clone() for k, v in module.state_dict().items()}
     speed, infer_cold, infer_warm = {}, {}, {}
-    for impl in ("pyg", "fast"):
+    calls = int(cfg.task.infer_calls)
+    for impl in IMPLS:
         module.load_state_dict(state)
         module.impl = impl
-        speed[impl] = train_graphs_per_s(module, dataset, batch_size, int(cfg.task.train_steps))
+        speed[impl.name] = train_graphs_per_s(
+            module, dataset, batch_size, int(cfg.task.train_steps)
+        )
         module.eval()
-        calls = int(cfg.task.infer_calls)
-        infer_cold[impl] = {str(infer_size): infer_ms_per_state(module, infer, impl, calls, False)}
-        if impl == "fast":
-            infer_warm[impl] = {
-                str(infer_size): infer_ms_per_state(module, infer, impl, calls, True)
-            }
+        cold = infer_ms_per_state(module, infer, impl, calls, False)
+        infer_cold[impl.name] = {str(infer_size): cold}
         log.info(
             "%s: %.0f graphs/s training, %.3f ms per A%d state",
-            impl,
-            speed[impl],
-            infer_cold[impl][str(infer_size)],
-            infer_size,
+            *(impl.name, speed[impl.name], cold, infer_size),
         )
+    # Only the fast path shares work between the states of an assembly.
+    warm = infer_ms_per_state(module, infer, FastImpl(), calls, True)
+    infer_warm["fast"] = {str(infer_size): warm}
     planning = {
-        impl: planner_benchmark(
+        impl.name: planner_benchmark(
             make_scorer(module, impl), infer[0].assembly, prefix_passes=int(cfg.task.prefix_passes)
         )
-        for impl in ("pyg", "fast")
+        for impl in IMPLS
     }
     result = {
         "params": count_parameters(module.net),

@@ -1,27 +1,30 @@
 """`python -m grace` (task=experiment): cross-validated training, planning and evaluation.
 
-For each fold of the chosen protocol (SPEC §8) it trains one model, plans every test assembly
-with Algorithm 1 over distinct states and computes the SPEC §7 metrics per test size, for GRACE
-and for the baselines on the same test assemblies. Writes results.json, results.md,
-pr_curves.png and p_at_k.png into the run folder and returns the mean sequence AUC over the test
-sizes (the sweep objective).
+For each fold of the chosen protocol (docs/protocols.md) it trains one model, plans every test
+assembly with Algorithm 1 over distinct states and computes the metrics of docs/metrics.md per
+test size, for GRACE and for the baselines on the same test assemblies. Writes results.json,
+results.md, pr_curves.png and p_at_k.png into the run folder and returns the mean sequence AUC
+over the test sizes (the sweep objective).
 """
 
 from __future__ import annotations
 
 import logging
 import math
+import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import torch
 from hydra.core.hydra_config import HydraConfig
-from hydra.utils import get_method, instantiate
+from hydra.utils import instantiate
 from joblib import Parallel, delayed
 from lightning.pytorch import seed_everything
-from omegaconf import DictConfig, OmegaConf
+from omegaconf import MISSING, DictConfig, OmegaConf
+from tqdm.contrib.logging import logging_redirect_tqdm
 
 from grace.domain.sample import LabelledAssembly
 from grace.evaluation.baselines import BASELINES
@@ -30,9 +33,38 @@ from grace.evaluation.feasibility_classifier import classifier_roc_auc
 from grace.evaluation.protocols import Fold, make_folds, protocol_sizes
 from grace.evaluation.report import aggregate, write_results
 from grace.planning.sequences import Scorer
+from grace.tasks.logs import log_to_file
+from grace.tasks.progress import ExperimentProgress, FoldReporter
+from grace.tasks.runner import TaskSettings
 from grace.visualisation.plots import p_at_k_bars, pr_curves
 
 log = logging.getLogger(__name__)
+
+
+@dataclass
+class ExperimentSettings(TaskSettings):
+    """Schema of `task=experiment` (values in grace/conf/task/experiment.yaml)."""
+
+    fit: Any = MISSING  # (cfg, train, val, out_dir, callbacks) -> trained module, a partial
+    scorer: Any = MISSING  # (module) -> Scorer, a partial
+    threshold: float = MISSING
+    ks: list[int] = MISSING
+    baselines: list[str] = MISSING
+    fold_jobs: int = MISSING
+
+
+@dataclass
+class ProtocolSettings:
+    """Schema of the `protocol` group (docs/protocols.md); sizes None = all in the data set."""
+
+    name: str = MISSING
+    folds: int = MISSING
+    val_fraction: float = MISSING
+    seed: int = MISSING
+    train_sizes: list[int] | None = MISSING
+    test_sizes: list[int] | None = MISSING
+    train_exclude: list[int] = MISSING
+    test_exclude: list[int] = MISSING
 
 
 def _overrides() -> list[str]:
@@ -71,7 +103,7 @@ def _policies(cfg: DictConfig, module: object, fold: Fold) -> dict[str, Scorer]:
     unknown = sorted(set(cfg.task.baselines) - set(BASELINES))
     if unknown:
         raise ValueError(f"task.baselines: unknown {unknown}; choose from {sorted(BASELINES)}")
-    policies = {"GRACE": get_method(cfg.task.scorer)(module)}
+    policies = {"GRACE": instantiate(cfg.task.scorer)(module)}
     policies.update({b: BASELINES[b](cfg.seed + fold.index) for b in cfg.task.baselines})
     return policies
 
@@ -92,12 +124,17 @@ def run_fold(
     val: list[LabelledAssembly],
     test: list[LabelledAssembly],
     threads: int,
+    progress: FoldReporter,
+    parent: int,
 ) -> FoldResult:
     """Train on one fold and evaluate GRACE and the baselines on its test assemblies.
 
     Seeded by `seed + fold index`, so a fold's result does not depend on which folds ran
-    before it or in which process.
+    before it or in which process. In a worker process (not `parent`) all messages go to the
+    run's log file; the parent shows the fold's progress from `progress`.
     """
+    if os.getpid() != parent:
+        log_to_file(cfg.paths.log_file, f"fold {fold.index}")
     seed_everything(int(cfg.seed) + fold.index, workers=True, verbose=False)
     torch.set_num_threads(threads)
     log.info(
@@ -105,10 +142,10 @@ def run_fold(
         *(fold.index, len(train), len(val), len(test)),
     )
     tick = time.perf_counter()
-    module = get_method(cfg.task.fit)(
-        cfg, train, val, Path(cfg.paths.output_dir) / f"fold_{fold.index}"
-    )
+    fold_dir = Path(cfg.paths.output_dir) / f"fold_{fold.index}"
+    module = instantiate(cfg.task.fit)(cfg, train, val, fold_dir, callbacks=[progress])
     train_s = time.perf_counter() - tick
+    progress.stage("evaluating")
     tick = time.perf_counter()
     ks = [int(k) for k in cfg.task.ks]
     metrics = {
@@ -120,7 +157,19 @@ def run_fold(
         roc = classifier_roc_auc(instantiate(estimator), module, train + val, test)
         for size, value in roc.items():
             metrics["GRACE"][size]["feasibility"]["classifier_roc_auc"] = value
-    return FoldResult(metrics, train_s, time.perf_counter() - tick)
+    evaluate_s = time.perf_counter() - tick
+    progress.done(train_s, evaluate_s)
+    return FoldResult(metrics, train_s, evaluate_s)
+
+
+def portable(cfg: DictConfig) -> DictConfig:
+    """A copy of `cfg` that worker processes can use: they have no Hydra runtime, so the one key
+    that reads it (`paths.output_dir`) is resolved; the other interpolations stay live."""
+    out = OmegaConf.create(OmegaConf.to_container(cfg, resolve=False))
+    out.paths.output_dir = str(Path(cfg.paths.output_dir).absolute())
+    if "trainer" in out:  # the experiment shows each fold's progress itself (progress.py)
+        out.trainer.enable_progress_bar = False
+    return out
 
 
 def _run_folds(
@@ -129,31 +178,30 @@ def _run_folds(
     """All folds, `task.fold_jobs` at a time in separate processes (joblib), threads split."""
     jobs = max(1, min(int(cfg.task.fold_jobs), len(folds)))
     threads = max(1, int(cfg.threads) // jobs)
-    # Resolved here: worker processes have no Hydra runtime to resolve `${hydra:...}`.
-    cfg = OmegaConf.create(OmegaConf.to_container(cfg, resolve=True))
-    if jobs > 1 and "trainer" in cfg:
-        # Progress bars of parallel processes would interleave on one terminal.
-        cfg.trainer.progress_bar = False
-    tasks = (
-        delayed(run_fold)(
-            cfg,
-            fold,
-            [data[i] for i in fold.train],
-            [data[i] for i in fold.val],
-            [data[i] for i in fold.test],
-            threads,
+    cfg = portable(cfg)
+    with ExperimentProgress(len(folds)) as progress, logging_redirect_tqdm():
+        tasks = (
+            delayed(run_fold)(
+                cfg,
+                fold,
+                [data[i] for i in fold.train],
+                [data[i] for i in fold.val],
+                [data[i] for i in fold.test],
+                threads,
+                progress.reporter(fold.index),
+                os.getpid(),
+            )
+            for fold in folds
         )
-        for fold in folds
-    )
-    # Processes, never threads: folds seed the global RNGs, which threads would share.
-    return list(Parallel(n_jobs=jobs, backend="loky")(tasks))
+        # Processes, never threads: folds seed the global RNGs, which threads would share.
+        return list(Parallel(n_jobs=jobs, backend="loky")(tasks))
 
 
 def run(cfg: DictConfig) -> float:
     """Run the experiment of `cfg.protocol`; return the mean sequence AUC of GRACE."""
     start = time.perf_counter()
     out_dir = Path(cfg.paths.output_dir)
-    data = get_method(cfg.task.loader)(cfg)
+    data = instantiate(cfg.dataset).load()
     train_sizes, test_sizes, folds = _folds(cfg, [sample.size for sample in data])
     load_s = time.perf_counter() - start
     fold_results = _run_folds(cfg, data, folds)

@@ -12,14 +12,25 @@ from __future__ import annotations
 import json
 import logging
 from collections.abc import Iterable
+from dataclasses import dataclass
 from pathlib import Path
 
-from omegaconf import DictConfig
+from omegaconf import MISSING, DictConfig
 
 from grace.data.atomic import write_text_atomic
+from grace.errors import UserError
 from grace.evaluation.report import METRIC_ROWS, cell, lookup, row_cells
+from grace.tasks.runner import TaskSettings
 
 log = logging.getLogger(__name__)
+
+
+@dataclass
+class GatherSettings(TaskSettings):
+    """Schema of `task=gather` (values in grace/conf/task/gather.yaml)."""
+
+    roots: list[str] = MISSING
+
 
 SIZE_KEYS = ("protocol", "test_size", "train_size")
 """Overrides that choose the protocol and its sizes, not a variant."""
@@ -31,7 +42,7 @@ def find_results(roots: Iterable[str | Path]) -> list[Path]:
     for root in roots:
         root = Path(root)
         if not root.exists():
-            raise FileNotFoundError(
+            raise UserError(
                 f"task.roots: {root} does not exist; pass the sweep folder(s) holding the runs"
             )
         found += sorted(root.rglob("results.json"))
@@ -131,7 +142,7 @@ def run(cfg: DictConfig) -> None:
     """Gather the runs under `cfg.task.roots` into gather.md and gather.json."""
     paths = find_results(cfg.task.roots)
     if not paths:
-        raise FileNotFoundError(
+        raise UserError(
             f"task.roots {list(cfg.task.roots)}: no results.json found; run a sweep first"
         )
     tables = collect(paths)

@@ -1,8 +1,8 @@
 """`python -m grace task=generate`: make (or finish) the data set, write stats.json and a top view.
 
-Issue 2. With `dataset.num_shards>1` a run generates only its share; stats and the picture are
-written by whichever run finds the data set complete. `task.export_raw=/folder` also exports every
-assembly in the raw format (SPEC §3) as `<folder>/A<size>/<name>/`.
+With `dataset.num_shards>1` a run generates only its share; stats and the picture are written by
+whichever run finds the data set complete. `task.export_raw=/folder` also exports every assembly
+in the raw format (docs/raw-format.md) as `<folder>/A<size>/<name>/`.
 """
 
 from __future__ import annotations
@@ -10,18 +10,31 @@ from __future__ import annotations
 import json
 import logging
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
-from omegaconf import DictConfig
+from hydra.utils import instantiate
+from omegaconf import MISSING, DictConfig
 
 from grace.data.atomic import write_bytes_atomic, write_text_atomic
 from grace.data.raw_format import export_raw
 from grace.data.stats import dataset_stats
-from grace.data.store import generate, read_chunks, seconds_per_assembly
+from grace.data.store import GeneratedSource, read_chunks, seconds_per_assembly
 from grace.domain.sample import LabelledAssembly
+from grace.errors import UserError
+from grace.tasks.runner import TaskSettings
 from grace.visualisation.topview import topview_png
 
 log = logging.getLogger(__name__)
+
+
+@dataclass
+class GenerateSettings(TaskSettings):
+    """Schema of `task=generate` (values in grace/conf/task/generate.yaml)."""
+
+    topview: int = MISSING
+    export_raw: str | None = MISSING
+
 
 STATS_FILE = "stats.json"
 TOPVIEW_FILE = "topview.png"
@@ -42,9 +55,13 @@ def pick_examples(samples: Sequence[LabelledAssembly], count: int) -> list[Label
 
 def run(cfg: DictConfig) -> None:
     """Generate this run's share; once the data set is complete write stats.json and topview.png."""
-    if cfg.dataset.name != "generated":
-        raise ValueError(f"task=generate needs dataset=generated, got dataset={cfg.dataset.name}")
-    generation = generate(cfg)
+    source = instantiate(cfg.dataset)
+    if not isinstance(source, GeneratedSource):
+        raise UserError(
+            f"task=generate makes a generated data set, but dataset is a {type(source).__name__}; "
+            "fix: drop the dataset= override (dataset=generated)"
+        )
+    generation = source.generate()
     if not generation.complete:
         log.info(
             "%d chunks still missing (other shards); stats are written once all exist",
@@ -59,7 +76,7 @@ def run(cfg: DictConfig) -> None:
     examples = pick_examples(samples, int(cfg.task.topview))
     if examples:
         write_bytes_atomic(out / TOPVIEW_FILE, topview_png(examples))
-    if cfg.task.get("export_raw"):
+    if cfg.task.export_raw:
         for sample in samples:
             export_raw(sample, Path(cfg.task.export_raw) / f"A{sample.size}" / sample.assembly.name)
     log.info("%d assemblies in %s; stats in %s", len(samples), generation.path, out / STATS_FILE)

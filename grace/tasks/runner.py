@@ -1,20 +1,34 @@
-"""Runs the task a composed config selects; shared set-up (seed, threads) lives here once."""
+"""Runs the task a composed config selects; shared set-up (seed, threads, logs) lives here once."""
 
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
+from typing import Any
 
 import torch
-from hydra.utils import get_method
+from hydra.utils import instantiate
 from lightning.pytorch import seed_everything
-from omegaconf import DictConfig
+from omegaconf import MISSING, DictConfig
+
+from grace.tasks.logs import quiet_terminal
 
 log = logging.getLogger(__name__)
 
 
+@dataclass
+class TaskSettings:
+    """What every `task` config holds (the base of each task's schema): its name, which names
+    the run folder, and `run`, the task function as a `_partial_` target."""
+
+    name: str = MISSING
+    run: Any = MISSING
+
+
 def run_task(cfg: DictConfig) -> float | None:
-    """Seed, cap the threads, call `cfg.task.fn(cfg)`; its return value is the sweep objective."""
+    """Seed, cap the threads, run `cfg.task.run(cfg)`; its return value is the sweep objective."""
+    quiet_terminal(cfg.paths.log_file)
     seed_everything(cfg.seed, workers=True, verbose=False)
     torch.set_num_threads(cfg.threads)
     log.info("task %s", cfg.task.name)
-    return get_method(cfg.task.fn)(cfg)
+    return instantiate(cfg.task.run)(cfg)

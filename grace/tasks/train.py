@@ -1,4 +1,4 @@
-"""`python -m grace task=train`: train GRACE on a data set and report held-out step AUC (issue 3).
+"""`python -m grace task=train`: train GRACE on a data set and report held-out step AUC.
 
 Assemblies (not states) are held out: per size, a seeded `task.test_fraction` for testing, then
 `task.val_fraction` of the rest for early stopping. Writes `metrics.json` next to the checkpoint in
@@ -10,22 +10,34 @@ from __future__ import annotations
 import json
 import logging
 import time
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
-from hydra.utils import get_method
-from omegaconf import DictConfig
+from hydra.utils import instantiate
+from omegaconf import MISSING, DictConfig
 
 from grace.data.atomic import write_text_atomic
 from grace.domain.sample import LabelledAssembly
+from grace.errors import UserError
 from grace.evaluation.metrics import step_auc
 from grace.graphs.assembly_graph import state_flags
-from grace.graphs.datamodule import training_states
+from grace.graphs.datamodule import StateSet, training_states
 from grace.model.grace_pyg import count_parameters
 from grace.model.scoring import Scorer, make_scorer
-from grace.model.training import fit
+from grace.tasks.runner import TaskSettings
 
 log = logging.getLogger(__name__)
+
+
+@dataclass
+class TrainSettings(TaskSettings):
+    """Schema of `task=train` (values in grace/conf/task/train.yaml)."""
+
+    fit: Any = MISSING  # (cfg, train, val, out_dir) -> trained module, a partial
+    test_fraction: float = MISSING
+    val_fraction: float = MISSING
 
 
 def split_assemblies(
@@ -34,7 +46,7 @@ def split_assemblies(
     """(train, val, test) split per size, seeded; sizes with ≥ 3 assemblies get a test share."""
     for name, f in (("test_fraction", test_fraction), ("val_fraction", val_fraction)):
         if not 0.0 <= f < 1.0:
-            raise ValueError(f"task.{name}={f}: use a fraction in [0, 1)")
+            raise UserError(f"task.{name}={f}: use a fraction in [0, 1)")
     rng = np.random.default_rng(seed)
     train, val, test = [], [], []
     for size in sorted({s.size for s in samples}):
@@ -49,10 +61,10 @@ def split_assemblies(
 
 
 def state_scores(scorer: Scorer, samples: list[LabelledAssembly]) -> tuple[np.ndarray, np.ndarray]:
-    """Flat (scores, labels) over the step-AUC test states of `samples` (SPEC §7)."""
+    """Flat (scores, labels) over the step-AUC test states of `samples` (docs/metrics.md)."""
     scores, labels = [], []
     for sample in samples:
-        s, y = training_states(sample, "orders")
+        s, y = training_states(sample, StateSet.orders)
         scores.append(scorer(sample.assembly, s).ravel())
         labels.append(state_flags(y, sample.size).numpy().ravel())
     if not scores:
@@ -68,12 +80,12 @@ def _finite(x: float) -> float | None:
 def run(cfg: DictConfig) -> float:
     out_dir = Path(cfg.paths.output_dir)
     start = time.perf_counter()
-    samples = get_method(cfg.task.loader)(cfg)
+    samples = instantiate(cfg.dataset).load()
     train, val, test = split_assemblies(
         samples, float(cfg.task.test_fraction), float(cfg.task.val_fraction), int(cfg.seed)
     )
     log.info("assemblies: %d train, %d val, %d test", len(train), len(val), len(test))
-    module = fit(cfg, train, val, out_dir)
+    module = instantiate(cfg.task.fit)(cfg, train, val, out_dir)
     scorer = make_scorer(module)
     per_size: dict[str, float | None] = {}
     for size in sorted({s.size for s in test}):
@@ -87,8 +99,8 @@ def run(cfg: DictConfig) -> float:
         "step_auc": {"all": _finite(overall), "per_size": per_size},
         "assemblies": {"train": len(train), "val": len(val), "test": len(test)},
         "params": count_parameters(module.net),
-        "model": cfg.model.name,
-        "impl": module.impl,
+        "model": module.name,
+        "impl": module.impl.name,
         "checkpoint": str(checkpoint) if checkpoint.exists() else None,
         "seconds": time.perf_counter() - start,
     }

@@ -4,11 +4,16 @@ from hydra.utils import instantiate
 from omegaconf import open_dict
 
 from grace.data import loading
-from grace.data.loading import load_dataset
+from grace.data.loading import RawSource
 from grace.data.raw_format import RawFormatError, export_raw
-from grace.data.store import load_generated
+from grace.data.store import GeneratedSource
+from grace.errors import UserError
 
 DROP = ("task=generate", "~simulator", "~model", "~trainer", "~protocol")
+
+
+def load_dataset(cfg):
+    return instantiate(cfg.dataset).load()
 
 
 @pytest.fixture
@@ -71,17 +76,15 @@ def test_malformed_raw_tree_writes_nothing(cfg_factory, raw_tree, tmp_path):
 
 
 def test_dataset_errors_name_the_fix(cfg_factory):
-    with pytest.raises(ValueError, match=r"dataset\.path"):
+    with pytest.raises(UserError, match=r"dataset\.path"):
         load_dataset(cfg_factory("dataset=raw", *DROP))
-    cfg = cfg_factory("dataset=raw", *DROP)
-    cfg.dataset.name = "mystery"
-    with pytest.raises(ValueError, match="dataset=generated or dataset=raw"):
-        load_dataset(cfg)
 
 
-def test_generated_goes_through_the_store(cfg_factory, fake_simulator):
+def test_the_dataset_group_chooses_the_source(cfg_factory, fake_simulator):
+    assert isinstance(instantiate(cfg_factory("dataset=raw", *DROP).dataset), RawSource)
     cfg = cfg_factory("dataset.sizes={4: 3}", "threads=1", *DROP)
     with open_dict(cfg):
         cfg.simulator = fake_simulator
-    assert load_dataset(cfg) == load_generated(cfg)
-    assert [s.size for s in load_dataset(cfg)] == [4, 4, 4]
+    source = instantiate(cfg.dataset)
+    assert isinstance(source, GeneratedSource) and source.simulator == dict(fake_simulator)
+    assert [s.size for s in source.load()] == [4, 4, 4]

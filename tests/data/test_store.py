@@ -2,18 +2,25 @@ import json
 from pathlib import Path
 
 import pytest
+from hydra.utils import instantiate
 from omegaconf import open_dict
 
 from grace.data.records import dumps, loads
 from grace.data.shards import SHARD_SUFFIX
-from grace.data.store import (
-    dataset_dir,
-    generate,
-    load_generated,
-    plan,
-    read_chunks,
-    seconds_per_assembly,
-)
+from grace.data.store import plan, read_chunks, seconds_per_assembly
+from grace.errors import UserError
+
+
+def generate(cfg):
+    return instantiate(cfg.dataset).generate()
+
+
+def load_generated(cfg):
+    return instantiate(cfg.dataset).load()
+
+
+def dataset_dir(cfg):
+    return instantiate(cfg.dataset).path
 
 
 @pytest.fixture
@@ -47,7 +54,7 @@ def test_plan_covers_every_assembly_once():
         (4, 2, 4),
         (4, 4, 5),
     ]
-    with pytest.raises(ValueError, match="chunk_size"):
+    with pytest.raises(UserError, match="chunk_size"):
         plan({3: 1}, 0)
 
 
@@ -98,7 +105,7 @@ def test_two_shards_merge_to_the_unsharded_data_set(fake_cfg, tmp_path):
     assert second.complete
     assert _data_bytes(first.path) == _data_bytes(dataset_dir(whole))
     assert load_generated(fake_cfg()) == load_generated(whole)
-    with pytest.raises(ValueError, match="shard"):
+    with pytest.raises(UserError, match="shard"):
         generate(fake_cfg("dataset.num_shards=2", "dataset.shard=2"))
 
 
@@ -148,5 +155,5 @@ def test_records_are_lossless(fake_cfg):
 
 
 def test_bad_sizes_are_one_clear_error(fake_cfg):
-    with pytest.raises(ValueError, match=r"dataset\.sizes"):
+    with pytest.raises(UserError, match=r"dataset\.sizes"):
         generate(fake_cfg(sizes="{3: -1}"))

@@ -6,7 +6,10 @@ from hydra.utils import instantiate
 from omegaconf import OmegaConf
 
 from grace.evaluation.feasibility_classifier import classifier_roc_auc, pooled_embeddings
-from grace.model.training import make_module
+
+
+def make_module(cfg):
+    return instantiate(cfg.model)
 
 
 @pytest.fixture

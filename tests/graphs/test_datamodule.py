@@ -1,17 +1,22 @@
 import numpy as np
 import pytest
 import torch
+from hydra.errors import ConfigCompositionException, InstantiationException
 from hydra.utils import instantiate
 
 from grace.domain.assembly import full_mask
 from grace.graphs.datamodule import (
     AssemblyBatchSampler,
     StateDataModule,
-    collate_states,
+    collate_dense,
+    collate_graphs,
     training_states,
 )
 from grace.graphs.dense import DenseAssemblies
 from grace.graphs.encoding import GraphEncoding
+
+CONFIG_ERRORS = (ConfigCompositionException, InstantiationException)
+"""A bad value fails at composition (a type) or at instantiation (a range)."""
 
 
 @pytest.fixture
@@ -39,8 +44,14 @@ def test_state_sets(samples):
     assert len(states) > 0 and not labels.any()
     states, labels = training_states(infeasible[0], "orders")
     assert states.tolist() == [0] and labels.tolist() == [0]
-    with pytest.raises(ValueError, match=r"trainer\.datamodule\.states"):
+    with pytest.raises(ValueError, match="'all' is not a valid StateSet"):
         training_states(samples[0], "all")
+
+
+def test_the_config_checks_sampling_options(cfg_factory):
+    for key, value in (("states", "all"), ("mixing", "random"), ("batch_size", "many")):
+        with pytest.raises(CONFIG_ERRORS, match=rf"datamodule\.{key}"):
+            cfg_factory(f"datamodule.{key}={value}")
 
 
 def test_sampler_packs_every_chunk_once_and_reshuffles():
@@ -53,9 +64,9 @@ def test_sampler_packs_every_chunk_once_and_reshuffles():
     assert first != second
 
 
-@pytest.mark.parametrize("impl", ["fast", "pyg"])
-def test_loaders_cover_all_states_with_padding_masks(samples, impl):
-    dm = StateDataModule(samples[:5], samples[5:], GraphEncoding(), impl=impl, batch_size=16)
+@pytest.mark.parametrize("collate", [collate_dense, collate_graphs])
+def test_loaders_cover_all_states_with_padding_masks(samples, collate):
+    dm = StateDataModule(samples[:5], samples[5:], GraphEncoding(), collate, batch_size=16)
     total = 0
     for batch in dm.train_dataloader():
         total += batch.n_states
@@ -64,16 +75,11 @@ def test_loaders_cover_all_states_with_padding_masks(samples, impl):
             batch.labels[~batch.mask] == 0
         )
         assert torch.all(batch.flags.sum(dim=1) < sizes)  # the full state is never a sample
-        if impl == "fast":
+        if collate is collate_dense:
             assert isinstance(batch.inputs, DenseAssemblies)
         else:
             assert batch.inputs["part"].num_nodes == int(sizes.sum())
     assert total == sum(len(training_states(s, "reachable")[0]) for s in samples[:5])
-
-
-def test_collate_rejects_unknown_impl(samples):
-    with pytest.raises(ValueError, match=r"model\.impl"):
-        collate_states([], [], [], "jit")
 
 
 def test_state_mixing_draws_states_across_assemblies(samples):
@@ -83,5 +89,3 @@ def test_state_mixing_draws_states_across_assemblies(samples):
         len(training_states(s, "reachable")[0]) for s in samples
     )
     assert max(len(b.inputs.part_mask) for b in batches) > 2  # several assemblies per batch
-    with pytest.raises(ValueError, match=r"trainer\.datamodule\.mixing"):
-        StateDataModule(samples, [], GraphEncoding(), mixing="random")

@@ -1,7 +1,12 @@
 import numpy as np
 import pytest
+from hydra.errors import ConfigCompositionException, InstantiationException
+from hydra.utils import instantiate
 
 from grace.graphs.encoding import GraphEncoding, node_ids, sinusoidal_pe
+
+CONFIG_ERRORS = (ConfigCompositionException, InstantiationException)
+"""A bad value fails at composition (a type) or at instantiation (a range)."""
 
 
 def test_sinusoidal_pe_follows_vaswani():
@@ -33,9 +38,9 @@ def test_pe_kinds():
         ("distance_scale", 0.0),
     ],
 )
-def test_bad_options_name_the_key(field, value):
-    with pytest.raises(ValueError, match=r"model\.graph"):
-        GraphEncoding(**{field: value})
+def test_bad_options_name_the_key(cfg_factory, field, value):
+    with pytest.raises(CONFIG_ERRORS, match=rf"model\.graph\.{field}"):
+        instantiate(cfg_factory(f"model.graph.{field}={value}").model.graph)
 
 
 PART_OF_SURFACE = np.array([0, 0, 0, 0, 1, 1, 2, 2, 2, 2])

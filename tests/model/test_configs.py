@@ -1,8 +1,10 @@
 import pytest
+from hydra.utils import instantiate
 
 from grace import CONF_DIR
 from grace.model.grace_pyg import count_parameters
-from grace.model.training import make_module
+from grace.model.impls import FastImpl
+from grace.model.module import GraceModule
 
 MODELS = sorted(p.stem for p in (CONF_DIR / "model").glob("*.yaml"))
 
@@ -20,6 +22,7 @@ EXTENDED = {"grace_state": 51_889, "grace_relational": 132_781}
 
 @pytest.mark.parametrize("name", MODELS)
 def test_model_configs_build_the_same_network(cfg_factory, name):
-    module = make_module(cfg_factory(f"model={name}"))
-    assert module.impl == "fast"
+    module = instantiate(cfg_factory(f"model={name}").model)
+    assert isinstance(module, GraceModule) and isinstance(module.impl, FastImpl)
+    assert module.name == name
     assert count_parameters(module.net) == EXTENDED.get(name, 51_701)

@@ -3,6 +3,7 @@ import pytest
 import torch
 from torch_geometric.data import Batch
 
+from grace.errors import UserError
 from grace.graphs.assembly_graph import encode_assembly, state_flags, state_graph
 from grace.graphs.dense import DenseAssemblies
 from grace.graphs.encoding import GraphEncoding
@@ -13,7 +14,7 @@ from grace.model.grace_pyg import GraceNet, NetConfig, count_parameters
 def test_paper_parameter_count():
     n = count_parameters(GraceNet(NetConfig()))
     assert n == 51_701
-    assert round(n / 1000, 1) == 51.7  # SPEC §5: 51.7 K
+    assert round(n / 1000, 1) == 51.7  # the paper, Sec. V-A3: 51.7 K
 
 
 def test_state_blocks_variant_adds_one_surface_input():
@@ -72,10 +73,10 @@ def test_fast_path_matches_in_float32(samples):
 
 
 def test_state_blocks_must_fit_the_surface_blocks():
-    with pytest.raises(ValueError, match=r"model\.state_blocks=4"):
+    with pytest.raises(UserError, match=r"model\.net\.state_blocks=4"):
         NetConfig(state_blocks=4)
 
 
 def test_readout_rounds_need_a_pair_readout():
-    with pytest.raises(ValueError, match=r"model\.readout_rounds=2"):
+    with pytest.raises(UserError, match=r"model\.net\.readout_rounds=2"):
         NetConfig(readout_rounds=2)

@@ -1,25 +1,26 @@
+import functools
+
 import numpy as np
 import pytest
-from omegaconf import OmegaConf
+import torch
 
-from grace import CONF_DIR
+from grace.graphs.encoding import GraphEncoding
+from grace.model.grace_pyg import NetConfig
+from grace.model.impls import FastImpl, PygImpl
 from grace.model.module import GraceModule
 from grace.model.scoring import make_scorer, part_embeddings
 
-CONF = OmegaConf.load(CONF_DIR / "model" / "grace.yaml")
-
 
 def module(state_blocks: int = 0, pair_readout: int = 0, **graph) -> GraceModule:
-    model = OmegaConf.to_container(CONF, resolve=True)
-    model["graph"].update(graph)
-    model["state_blocks"], model["pair_readout"] = state_blocks, pair_readout
-    return GraceModule(model)
+    net = NetConfig(state_blocks=state_blocks, pair_readout=pair_readout)
+    adam = functools.partial(torch.optim.Adam, lr=1e-3)
+    return GraceModule(net, GraphEncoding(**graph), FastImpl(), adam)
 
 
 @pytest.mark.parametrize(("state_blocks", "pair_readout"), [(0, 0), (1, 0), (3, 0), (0, 8)])
 def test_scorer_batches_states_and_matches_the_pyg_path(samples, state_blocks, pair_readout):
     m = module(state_blocks, pair_readout)
-    fast, pyg = make_scorer(m), make_scorer(m, "pyg")
+    fast, pyg = make_scorer(m), make_scorer(m, PygImpl())
     for sample in samples[:3]:
         states = sample.truth.states
         scores = fast(sample.assembly, states)

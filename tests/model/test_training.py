@@ -2,12 +2,14 @@ import csv
 
 import numpy as np
 import torch
+from hydra.utils import instantiate
 
 from grace.evaluation.metrics import step_auc
 from grace.model.module import GraceModule
+from grace.model.module import step_auc as logged_step_auc
 from grace.model.scoring import make_scorer
-from grace.model.training import fit, make_module
 from grace.tasks.train import state_scores
+from grace.tasks.training import train_module
 
 
 def _epochs(path):
@@ -18,13 +20,13 @@ def _epochs(path):
 def test_short_training_overfits_a_tiny_set(cfg_factory, samples, tmp_path):
     cfg = cfg_factory(
         "trainer.max_epochs=40",
-        "trainer.batch_size=8",
-        "trainer.progress_bar=false",
-        "trainer.lr_decay=null",
+        "datamodule.batch_size=8",
+        "trainer.enable_progress_bar=false",
+        "model.scheduler=null",
         "seed=0",
     )
-    before = step_auc(*state_scores(make_scorer(make_module(cfg)), samples))
-    module = fit(cfg, samples, samples, tmp_path / "run")
+    before = step_auc(*state_scores(make_scorer(instantiate(cfg.model)), samples))
+    module = train_module(cfg, samples, samples, tmp_path / "run")
     assert isinstance(module, GraceModule)
     assert (tmp_path / "run" / "checkpoints" / "best.ckpt").exists()
     rows = _epochs(next((tmp_path / "run" / "logs").glob("version_*/metrics.csv")))
@@ -36,13 +38,44 @@ def test_short_training_overfits_a_tiny_set(cfg_factory, samples, tmp_path):
     assert after > before + 0.2
 
 
+def test_the_logged_step_auc_is_the_evaluation_metric():
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        scores, labels = rng.random(400).round(2), rng.random(400) < 0.3
+        logged = logged_step_auc(torch.tensor(scores), torch.tensor(labels))
+        assert abs(float(logged) - step_auc(scores, labels)) < 1e-6  # float32 in torchmetrics
+    assert logged_step_auc(torch.rand(5), torch.zeros(5)) is None
+
+
+def test_the_checkpoint_rebuilds_the_module_without_the_config(cfg_factory, samples, tmp_path):
+    cfg = cfg_factory("trainer.max_epochs=2", "trainer.enable_progress_bar=false")
+    module = train_module(cfg, samples, samples, tmp_path / "run")
+    best = tmp_path / "run" / "checkpoints" / "best.ckpt"
+    loaded = GraceModule.load_from_checkpoint(best, weights_only=False)
+    states = samples[1].truth.states
+    np.testing.assert_array_equal(
+        make_scorer(loaded)(samples[1].assembly, states),
+        make_scorer(module)(samples[1].assembly, states),
+    )
+
+
+def test_without_validation_the_training_loss_is_monitored(cfg_factory, samples, tmp_path):
+    cfg = cfg_factory("trainer.max_epochs=3", "trainer.enable_progress_bar=false")
+    train_module(cfg, samples, [], tmp_path / "run")
+    rows = list(csv.DictReader(next((tmp_path / "run").glob("logs/version_*/metrics.csv")).open()))
+    assert rows and not any(r.get("val_loss") for r in rows)
+    assert (tmp_path / "run" / "checkpoints" / "best.ckpt").exists()
+
+
 def test_lr_decay_watches_the_early_stopping_monitor(cfg_factory):
-    constant = make_module(cfg_factory("trainer.lr_decay=null")).configure_optimizers()
+    constant = instantiate(cfg_factory("model.scheduler=null").model).configure_optimizers()
     assert isinstance(constant, torch.optim.Adam)
-    module = make_module(cfg_factory("trainer.lr_decay.factor=0.25"))
-    module.monitor, module.monitor_mode = "val_step_auc", "max"
-    config = module.configure_optimizers()
+    cfg = cfg_factory(
+        "model.scheduler.factor=0.25", "monitor.metric=val_step_auc", "monitor.mode=max"
+    )
+    config = instantiate(cfg.model).configure_optimizers()
     decay = config["lr_scheduler"]["scheduler"]
     assert isinstance(decay, torch.optim.lr_scheduler.ReduceLROnPlateau)
     assert config["lr_scheduler"]["monitor"] == "val_step_auc"
     assert decay.mode == "max" and decay.factor == 0.25
+    assert instantiate(cfg.callbacks.early_stopping).monitor == "val_step_auc"

@@ -1,4 +1,4 @@
-"""Stand-ins for the data loader and trainer so the experiment runs without them in tests."""
+"""Stand-ins for the data source and trainer so the experiment runs without them in tests."""
 
 from __future__ import annotations
 
@@ -13,8 +13,14 @@ TRUTH: dict[str, GroundTruth] = {}  # by assembly name; rebuilt on demand in wor
 FITS: list[tuple[int, int]] = []  # fits of this process (fold_jobs=1)
 
 
-def load_dataset(cfg) -> list[LabelledAssembly]:
-    return _puzzles(int(cfg.seed))
+class PuzzleSource:
+    """A `dataset` config target: `load()` gives 36 seeded precedence puzzles."""
+
+    def __init__(self, seed: int) -> None:
+        self.seed = seed
+
+    def load(self) -> list[LabelledAssembly]:
+        return _puzzles(self.seed)
 
 
 def _puzzles(seed: int) -> list[LabelledAssembly]:
@@ -36,7 +42,7 @@ def _puzzles(seed: int) -> list[LabelledAssembly]:
     return data
 
 
-def fit(cfg, train, val, out_dir):
+def fit(cfg, train, val, out_dir, callbacks=()):
     FITS.append((len(train), len(val)))
     return 0.1  # the noise level of the fake policy
 

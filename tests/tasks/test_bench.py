@@ -14,7 +14,7 @@ def test_bench_writes_side_by_side_figures(cfg_factory, fake_simulator):
         "task.train_steps=2",
         "task.infer_calls=3",
         "task.prefix_passes=5",
-        "trainer.batch_size=16",
+        "datamodule.batch_size=16",
         "threads=1",
     )
     with open_dict(cfg):

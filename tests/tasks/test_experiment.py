@@ -6,32 +6,29 @@ from pathlib import Path
 
 import experiment_fakes
 import pytest
-from omegaconf import OmegaConf
+from omegaconf import open_dict
 
-from grace import CONF_DIR
 from grace.tasks.experiment import run
 
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def _cfg(tmp_path, protocol: str, **top):
-    cfg = OmegaConf.create(
-        {
-            "seed": 0,
-            "threads": 1,
-            "train_size": 4,
-            "test_size": 4,
-            "paths": {"output_dir": str(tmp_path), "data_dir": str(tmp_path / "data")},
-            "task": OmegaConf.load(CONF_DIR / "task" / "experiment.yaml"),
-            "protocol": OmegaConf.load(CONF_DIR / "protocol" / f"{protocol}.yaml"),
-            **top,
-        }
-    )
-    cfg.task.loader = "experiment_fakes.load_dataset"
-    cfg.task.fit = "experiment_fakes.fit"
-    cfg.task.scorer = "experiment_fakes.make_scorer"
-    cfg.task.fold_jobs = 1  # FITS records the fits of this process
-    return cfg
+@pytest.fixture
+def fake_cfg(cfg_factory):
+    """The experiment on precedence puzzles, a near-oracle policy and no training."""
+
+    def make(out, protocol: str, *overrides: str):
+        cfg = cfg_factory(
+            f"paths.output_dir={out}", f"protocol={protocol}", "threads=1", "train_size=4",
+            "test_size=4", "task.fold_jobs=1", *overrides,
+        )  # fmt: skip
+        with open_dict(cfg):  # FITS records the fits of this process (fold_jobs=1)
+            cfg.dataset = {"_target_": "experiment_fakes.PuzzleSource", "seed": 0}
+            cfg.task.fit = {"_target_": "experiment_fakes.fit", "_partial_": True}
+            cfg.task.scorer = {"_target_": "experiment_fakes.make_scorer", "_partial_": True}
+        return cfg
+
+    return make
 
 
 def _check_stat(stat):
@@ -64,9 +61,9 @@ def check_schema(results: dict) -> None:
                 assert not math.isnan(stat["mean"])
 
 
-def test_intra_experiment_writes_results(tmp_path):
+def test_intra_experiment_writes_results(tmp_path, fake_cfg):
     experiment_fakes.FITS.clear()
-    objective = run(_cfg(tmp_path, "intra"))
+    objective = run(fake_cfg(tmp_path, "intra"))
     results = json.loads((tmp_path / "results.json").read_text())
     check_schema(results)
     assert results["protocol"] == "intra" and results["test_sizes"] == [3, 4, 5]
@@ -84,26 +81,26 @@ def test_intra_experiment_writes_results(tmp_path):
     assert (tmp_path / "p_at_k.png").stat().st_size > 0
 
 
-def test_parallel_folds_give_the_same_results(tmp_path):
-    serial = _cfg(tmp_path / "serial", "intra")
-    parallel = _cfg(tmp_path / "parallel", "intra")
-    parallel.task.fold_jobs = 2
+def test_parallel_folds_give_the_same_results(tmp_path, fake_cfg):
+    serial = fake_cfg(tmp_path / "serial", "intra")
+    parallel = fake_cfg(tmp_path / "parallel", "intra", "task.fold_jobs=2")
     assert run(parallel) == run(serial)
     a, b = (json.loads((tmp_path / d / "results.json").read_text()) for d in ("serial", "parallel"))
     assert a["per_size"] == b["per_size"] and a["baselines"] == b["baselines"]
 
 
-def test_inter_sized_protocols_use_top_level_sizes(tmp_path):
-    run(_cfg(tmp_path / "m2o", "many_to_one", test_size=5))
+def test_inter_sized_protocols_use_top_level_sizes(tmp_path, fake_cfg):
+    run(fake_cfg(tmp_path / "m2o", "many_to_one", "test_size=5"))
     m2o = json.loads((tmp_path / "m2o" / "results.json").read_text())
     assert m2o["train_sizes"] == [3, 4] and m2o["test_sizes"] == [5]
     assert list(m2o["per_size"]) == ["5"]
-    run(_cfg(tmp_path / "o2m", "one_to_many", train_size=3))
+    run(fake_cfg(tmp_path / "o2m", "one_to_many", "train_size=3"))
     o2m = json.loads((tmp_path / "o2m" / "results.json").read_text())
     assert o2m["train_sizes"] == [3] and o2m["test_sizes"] == [4, 5]
     check_schema(o2m)
 
 
+@pytest.mark.slow
 def test_python_m_grace_smoke_end_to_end(tmp_path):
     """The real pipeline (simulator data, GRACE training, planning) in a temporary folder."""
     out = tmp_path / "run"
@@ -114,7 +111,6 @@ def test_python_m_grace_smoke_end_to_end(tmp_path):
         "scale=smoke",
         "protocol.folds=2",
         "trainer.max_epochs=2",
-        "trainer.progress_bar=false",
         f"hydra.run.dir={out}",
         f"paths.data_dir={tmp_path / 'data'}",
     ]

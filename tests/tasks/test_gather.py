@@ -3,6 +3,7 @@ import json
 import pytest
 from omegaconf import OmegaConf
 
+from grace.errors import UserError
 from grace.tasks.gather import run, variants
 
 
@@ -66,5 +67,5 @@ def test_missing_root_is_a_clear_error(tmp_path):
     cfg = OmegaConf.create(
         {"task": {"roots": [str(tmp_path / "nope")]}, "paths": {"output_dir": str(tmp_path)}}
     )
-    with pytest.raises(FileNotFoundError, match=r"task\.roots"):
+    with pytest.raises(UserError, match=r"task\.roots"):
         run(cfg)

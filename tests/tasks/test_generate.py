@@ -3,14 +3,21 @@ import math
 from pathlib import Path
 
 import pytest
+from hydra.utils import instantiate
 from omegaconf import open_dict
 
 from grace.data.raw_format import import_raw
-from grace.data.store import generate, load_generated
+from grace.errors import UserError
 from grace.tasks.generate import pick_examples, run
 
 # Groups task=generate does not use; dropping them keeps this test independent of their configs.
 UNUSED = ("~model", "~trainer", "~protocol")
+
+
+def load_generated(cfg):
+    return instantiate(cfg.dataset).load()
+
+
 SIZE_KEYS = {
     "assemblies": int, "infeasible_fraction": float, "orders_mean": float, "orders_median": float,
     "multi_order_fraction": float, "infeasible_causes": dict, "robot_pruned_fraction": float,
@@ -98,7 +105,7 @@ def test_pick_examples_mixes_feasible_and_infeasible(cfg_factory, fake_simulator
 
 
 def test_generate_rejects_raw_dataset(cfg_factory):
-    with pytest.raises(ValueError, match="dataset=generated"):
+    with pytest.raises(UserError, match="dataset=generated"):
         run(cfg_factory("task=generate", "dataset=raw", *UNUSED))
 
 
@@ -108,7 +115,7 @@ def test_real_simulator_bytes_do_not_depend_on_workers(cfg_factory, tmp_path):
             "task=generate", "dataset.sizes={4: 3, 6: 3}", "dataset.chunk_size=2",
             f"dataset.workers={workers}", f"paths.data_dir={tmp_path / str(workers)}", *UNUSED,
         )  # fmt: skip
-        generation = generate(cfg)
+        generation = instantiate(cfg.dataset).generate()
         return [chunk.path(generation.path).read_bytes() for chunk in generation.chunks]
 
     assert shard_bytes(1) == shard_bytes(2)

@@ -5,12 +5,15 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
+@pytest.mark.slow
 def test_table3_sweep_runs_both_models_and_gathers(tmp_path):
     sweep = tmp_path / "sweep"
-    common = ["trainer.progress_bar=false", f"paths.data_dir={tmp_path / 'data'}"]
+    common = [f"paths.data_dir={tmp_path / 'data'}"]
     subprocess.run(
         [
             *(sys.executable, "-m", "grace", "--config-dir", "sweeps", "--config-name", "table3"),

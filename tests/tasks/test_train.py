@@ -7,6 +7,7 @@ import pytest
 from hydra.utils import instantiate
 from omegaconf import open_dict
 
+from grace.errors import UserError
 from grace.tasks.train import run, split_assemblies
 
 
@@ -18,7 +19,7 @@ def test_split_holds_out_whole_assemblies_per_size(samples_by_size):
     assert {s.size for s in test} == {s.size for s in samples_by_size}
     again = split_assemblies(samples_by_size, 0.15, 0.15, seed=0)
     assert [id(s) for s in again[2]] == [id(s) for s in test]
-    with pytest.raises(ValueError, match=r"task\.test_fraction"):
+    with pytest.raises(UserError, match=r"task\.test_fraction"):
         split_assemblies(samples_by_size, 1.5, 0.15, seed=0)
 
 
@@ -35,7 +36,7 @@ def test_task_train_writes_checkpoint_and_metrics(cfg_factory, fake_simulator, c
         "dataset.sizes={3: 8, 4: 8}",
         "threads=1",
         "trainer.max_epochs=2",
-        "trainer.progress_bar=false",
+        "trainer.enable_progress_bar=false",
     )
     with open_dict(cfg):
         cfg.simulator = fake_simulator

@@ -1,0 +1,84 @@
+"""Sweeps through Hydra launchers: a run's results do not depend on where it runs.
+
+`hydra/launcher=submitit_local` goes through the same launcher code as `hydra/launcher=slurm`
+(submitit pickles each run, a separate process unpickles and runs it); only the executor that
+starts the process differs. There is no SLURM here: the slurm config is checked as composed.
+"""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from hydra import compose, initialize_config_dir
+from hydra.core.global_hydra import GlobalHydra
+
+from grace import CONF_DIR
+from grace.tasks.schemas import register_schemas
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def sweep(tmp_path: Path, name: str, launcher: str, *overrides: str) -> list[dict]:
+    """Run `python -m grace -m` over seed=0,1 with `launcher`; each job's result file, by job."""
+    out = tmp_path / name
+    subprocess.run(
+        [
+            *(sys.executable, "-m", "grace", "-m", f"hydra/launcher={launcher}", "seed=0,1"),
+            *overrides,
+            f"hydra.sweep.dir={out}",
+            f"paths.data_dir={tmp_path / 'data'}",
+        ],
+        cwd=ROOT,
+        check=True,
+        capture_output=True,
+        timeout=600,
+    )
+    jobs = sorted(out.glob("*/*.json"), key=lambda p: int(p.parent.name))
+    return [json.loads(p.read_text()) for p in jobs]
+
+
+TRAIN = (
+    "task=train",
+    "dataset.sizes={3: 6, 4: 6}",
+    "trainer.max_epochs=2",
+    "threads=1",  # one thread: bitwise the same arithmetic in every process
+)
+
+
+def test_submitit_local_runs_a_two_job_sweep_like_the_basic_launcher(tmp_path):
+    local = sweep(tmp_path, "submitit", "submitit_local", *TRAIN)
+    basic = sweep(tmp_path, "basic", "basic", *TRAIN)
+    assert len(local) == len(basic) == 2
+    for a, b in zip(local, basic, strict=True):
+        assert a["step_auc"] == b["step_auc"] and a["assemblies"] == b["assemblies"]
+    assert local[0]["step_auc"] != local[1]["step_auc"]  # two seeds, two different runs
+
+
+@pytest.mark.slow
+def test_the_experiment_gives_the_same_metrics_under_every_local_launcher(tmp_path):
+    smoke = ("scale=smoke", "protocol.folds=2", "trainer.max_epochs=3")
+    runs = {
+        launcher: sweep(tmp_path, launcher, launcher, *smoke)
+        for launcher in ("basic", "joblib", "submitit_local")
+    }
+    for launcher in ("joblib", "submitit_local"):
+        for a, b in zip(runs["basic"], runs[launcher], strict=True):
+            assert a["per_size"] == b["per_size"] and a["baselines"] == b["baselines"]
+    assert [r["run"]["seed"] for r in runs["basic"]] == [0, 1]
+
+
+def test_the_slurm_launcher_config_composes():
+    register_schemas()
+    GlobalHydra.instance().clear()
+    with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
+        cfg = compose(
+            config_name="config",
+            overrides=["hydra/launcher=slurm", "threads=4"],
+            return_hydra_config=True,
+        )
+    launcher = cfg.hydra.launcher
+    assert launcher._target_.endswith("submitit_launcher.SlurmLauncher")
+    assert launcher.cpus_per_task == 4 and launcher.timeout_min == 240
+    assert launcher.tasks_per_node == 1 and launcher.nodes == 1

@@ -1,0 +1,151 @@
+"""The layout's rules, checked on the source: imports run one way, and only the task layer
+branches on config strings (everything else gets objects, enums and plain values)."""
+
+import ast
+import enum
+from pathlib import Path
+
+import pytest
+from omegaconf import OmegaConf
+
+import grace.tasks.schemas  # noqa: F401 (imports every module whose enums type a config key)
+from grace import CONF_DIR
+
+PACKAGE = Path(__file__).resolve().parents[1] / "grace"
+
+LAYERS = (
+    "domain",
+    "simulation",
+    "data",
+    "graphs",
+    "model",
+    "planning",
+    "evaluation",
+    "visualisation",
+    "tasks",
+)
+"""Bottom to top (README, Layout): a module may import its own layer and the ones below."""
+
+LEAVES = ("grace", "grace.errors")
+"""Modules every layer may import; they import nothing of grace themselves."""
+
+
+def modules() -> dict[str, Path]:
+    out = {}
+    for path in sorted(PACKAGE.rglob("*.py")):
+        parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+        name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+        out[name] = path
+    return out
+
+
+def layer(module: str) -> int:
+    """Index in LAYERS; the entry point (grace.__main__) sits with the tasks on top."""
+    if module == "grace.__main__":
+        return len(LAYERS) - 1
+    return LAYERS.index(module.split(".")[1])
+
+
+def grace_imports(module: str, path: Path) -> list[tuple[int, str]]:
+    """(line, imported module) of every import of grace code in `path`, nested ones included."""
+    found = []
+    package = module if path.name == "__init__.py" else module.rpartition(".")[0]
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            found += [(node.lineno, alias.name) for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                anchor = package.split(".")[: len(package.split(".")) - node.level + 1]
+                base = ".".join([*anchor, base] if base else anchor)
+            found.append((node.lineno, base))
+    return [(line, name) for line, name in found if name == "grace" or name.startswith("grace.")]
+
+
+def test_the_rule_sees_both_kinds_of_import(tmp_path):
+    source = tmp_path / "mod.py"
+    source.write_text("import grace.tasks.runner\nfrom ..evaluation import metrics\nimport numpy\n")
+    imports = grace_imports("grace.model.mod", source)
+    assert imports == [(1, "grace.tasks.runner"), (2, "grace.evaluation")]
+    assert [layer(name) > layer("grace.model.mod") for _, name in imports] == [True, True]
+
+
+def test_no_layer_imports_one_above_it():
+    wrong = []
+    for module, path in modules().items():
+        for line, name in grace_imports(module, path):
+            if module in LEAVES:
+                wrong.append(f"{path}:{line}: the leaf {module} imports {name}")
+            elif name not in LEAVES and layer(name) > layer(module):
+                wrong.append(f"{path}:{line}: {module} imports {name} from a higher layer")
+    assert not wrong, "\n".join(wrong)
+
+
+def config_strings() -> set[str]:
+    """Every string a config can hold: the shipped configs' values and option names (a group's
+    file names) and the values of the enums that type config keys; no targets, no paths."""
+    values: set[str] = set()
+
+    def walk(node: object, key: str = "") -> None:
+        if isinstance(node, dict):
+            for k, v in node.items():
+                walk(v, str(k))
+        elif isinstance(node, list):
+            for item in node:
+                walk(item, key)
+        elif isinstance(node, str) and "${" not in node and not key.startswith("_"):
+            values.add(node)
+
+    for path in CONF_DIR.rglob("*.yaml"):
+        walk(OmegaConf.to_container(OmegaConf.load(path), resolve=False))
+        values.add(path.stem)
+    for kind in enum.StrEnum.__subclasses__():
+        if kind.__module__.startswith("grace."):
+            values |= {member.value for member in kind}
+    return values
+
+
+CHOICES = config_strings()
+
+
+def branch_tests(tree: ast.AST) -> list[ast.expr]:
+    """The conditions of every if, conditional expression, while, assert and comprehension."""
+    tests: list[ast.expr] = []
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.If, ast.IfExp, ast.While, ast.Assert)):
+            tests.append(node.test)
+        elif isinstance(node, ast.comprehension):
+            tests += node.ifs
+        elif isinstance(node, ast.match_case) and isinstance(node.pattern, ast.MatchValue):
+            tests.append(node.pattern.value)
+    return tests
+
+
+def config_string_branches(tree: ast.AST) -> list[tuple[int, str]]:
+    """(line, string) of every branch on a string that a config can hold."""
+    found = []
+    for test in branch_tests(tree):
+        for node in ast.walk(test):
+            if isinstance(node, ast.Constant) and node.value in CHOICES:
+                found.append((node.lineno, node.value))
+    return sorted(found)
+
+
+def test_the_rule_sees_a_branch_on_a_config_string():
+    assert {"fast", "pyg", "orders", "reachable", "sinusoidal", "csv", "generated"} <= CHOICES
+    code = (
+        "if impl == 'fast':\n    pass\n"
+        "x = [a for a in b if a in ('pyg',)]\n"
+        "y = 1 if 'orders' else 2\n"
+    )
+    assert config_string_branches(ast.parse(code)) == [(1, "fast"), (3, "pyg"), (4, "orders")]
+    assert config_string_branches(ast.parse("if line == 'begin Pieces':\n    pass\n")) == []
+
+
+@pytest.mark.parametrize(
+    "module", [m for m in modules() if m not in LEAVES and layer(m) < len(LAYERS) - 1]
+)
+def test_below_the_task_layer_nothing_branches_on_a_config_string(module):
+    path = modules()[module]
+    found = config_string_branches(ast.parse(path.read_text(), str(path)))
+    assert not found, "\n".join(f"{path}:{line}: branches on {value!r}" for line, value in found)
