@@ -24,12 +24,15 @@ from lightning.pytorch import seed_everything
 from omegaconf import DictConfig, OmegaConf
 
 from grace.domain.sample import LabelledAssembly
+from grace.evaluation.analysis import write_analysis
 from grace.evaluation.baselines import BASELINES
+from grace.evaluation.collapse import fold_health
 from grace.evaluation.evaluate import evaluate_by_size
-from grace.evaluation.feasibility_classifier import classifier_roc_auc
-from grace.evaluation.protocols import Fold, make_folds, protocol_sizes
+from grace.evaluation.feasibility import add_schemes, embedding_schemes
+from grace.evaluation.protocols import Fold, make_folds, protocol_sizes, training_subset
 from grace.evaluation.report import aggregate, write_results
 from grace.planning.sequences import Scorer
+from grace.visualisation.analysis import draw_analysis
 from grace.visualisation.plots import p_at_k_bars, pr_curves
 
 log = logging.getLogger(__name__)
@@ -83,6 +86,7 @@ class FoldResult:
     metrics: dict[str, dict[int, dict]]
     train_s: float
     evaluate_s: float
+    health: dict
 
 
 def run_fold(
@@ -105,8 +109,10 @@ def run_fold(
         *(fold.index, len(train), len(val), len(test)),
     )
     tick = time.perf_counter()
+    train_on = OmegaConf.select(cfg, "task.train_on", default="all")
+    fold_dir = Path(cfg.paths.output_dir) / f"fold_{fold.index}"
     module = get_method(cfg.task.fit)(
-        cfg, train, val, Path(cfg.paths.output_dir) / f"fold_{fold.index}"
+        cfg, training_subset(train, train_on), training_subset(val, train_on), fold_dir
     )
     train_s = time.perf_counter() - tick
     tick = time.perf_counter()
@@ -117,16 +123,19 @@ def run_fold(
     }
     estimator = OmegaConf.select(cfg, "classifier.estimator")
     if estimator is not None:
-        roc = classifier_roc_auc(instantiate(estimator), module, train + val, test)
-        for size, value in roc.items():
-            metrics["GRACE"][size]["feasibility"]["classifier_roc_auc"] = value
-    return FoldResult(metrics, train_s, time.perf_counter() - tick)
+        classifiers = {cfg.classifier.name: instantiate(estimator)}
+        add_schemes(metrics["GRACE"], embedding_schemes(module, train + val, test, classifiers))
+    health = fold_health(metrics, val, fold_dir / "logs")
+    if health["collapsed"]:
+        log.warning("fold %d COLLAPSED: %s", fold.index, "; ".join(health["reasons"]))
+    return FoldResult(metrics, train_s, time.perf_counter() - tick, {"fold": fold.index, **health})
 
 
 def _run_folds(
-    cfg: DictConfig, data: list[LabelledAssembly], folds: list[Fold]
-) -> list[FoldResult]:
-    """All folds, `task.fold_jobs` at a time in separate processes (joblib), threads split."""
+    cfg: DictConfig, data: list[LabelledAssembly], folds: list[Fold], fold_fn=None
+) -> list:
+    """`fold_fn` (default run_fold) on all folds, `task.fold_jobs` at a time in separate
+    processes (joblib), threads split."""
     jobs = max(1, min(int(cfg.task.fold_jobs), len(folds)))
     threads = max(1, int(cfg.threads) // jobs)
     # Resolved here: worker processes have no Hydra runtime to resolve `${hydra:...}`.
@@ -135,7 +144,7 @@ def _run_folds(
         # Progress bars of parallel processes would interleave on one terminal.
         cfg.trainer.progress_bar = False
     tasks = (
-        delayed(run_fold)(
+        delayed(fold_fn or run_fold)(
             cfg,
             fold,
             [data[i] for i in fold.train],
@@ -162,6 +171,7 @@ def run(cfg: DictConfig) -> float:
     evaluate_s = [r.evaluate_s for r in fold_results]
     per_size = aggregate(per_fold["GRACE"])
     baselines = {b: {"per_size": aggregate(per_fold[b])} for b in cfg.task.baselines}
+    health = [r.health for r in fold_results]
     results = {
         "protocol": cfg.protocol.name,
         "train_sizes": train_sizes,
@@ -171,6 +181,8 @@ def run(cfg: DictConfig) -> float:
         "baselines": baselines,
         "seconds": time.perf_counter() - start,
         "seconds_by_stage": {"load": load_s, "train": train_s, "evaluate": evaluate_s},
+        "collapsed_folds": [h["fold"] for h in health if h["collapsed"]],
+        "fold_health": health,
         "run": {
             "model": OmegaConf.select(cfg, "model.name"),
             "seed": cfg.seed,
@@ -178,6 +190,7 @@ def run(cfg: DictConfig) -> float:
         },
     }
     write_results(results, out_dir)
+    draw_analysis(write_analysis(per_fold["GRACE"], out_dir), out_dir)
     pr_curves({name: _mean_curves(f) for name, f in per_fold.items()}, out_dir / "pr_curves.png")
     p_at_k_bars(
         {"GRACE": per_size, **{b: baselines[b]["per_size"] for b in baselines}},
@@ -185,5 +198,9 @@ def run(cfg: DictConfig) -> float:
     )
     seq = [entry["seq_auc"]["mean"] for entry in per_size.values() if "seq_auc" in entry]
     objective = float(np.mean(seq)) if seq else math.nan
+    if results["collapsed_folds"]:
+        log.warning(
+            "collapsed folds %s: see fold_health in results.json", results["collapsed_folds"]
+        )
     log.info("mean sequence AUC %.4f, results in %s", objective, out_dir)
     return objective
