@@ -3,8 +3,9 @@
 For each fold of the chosen protocol (SPEC §8) it trains one model, plans every test assembly
 with Algorithm 1 over distinct states and computes the SPEC §7 metrics per test size, for GRACE
 and for the baselines on the same test assemblies. Writes results.json, results.md,
-pr_curves.png and p_at_k.png into the run folder and returns the mean sequence AUC over the test
-sizes (the sweep objective).
+pr_curves.png, p_at_k.png, feasibility.json, feasibility_roc.png, failures.json and failures.png
+into the run folder (docs/metrics.md), flags collapsed folds, and returns the mean sequence AUC
+over the test sizes (the sweep objective).
 """
 
 from __future__ import annotations
