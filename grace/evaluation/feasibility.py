@@ -17,6 +17,7 @@ curves (TPR averaged at fixed FPRs).
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -36,6 +37,11 @@ MAX_FPR = 0.05
 """The false-positive rate at which the TPR is reported: an infeasible assembly sent to the cell
 once in twenty."""
 ROC_GRID = np.linspace(0.0, 1.0, 101)
+MIN_DENSITY_FIT = 32
+"""Fewest feasible training assemblies a density is fitted on: fewer points than the features
+they are projected to (16 in grace/conf/task/feasibility.yaml) give no density at all."""
+
+log = logging.getLogger(__name__)
 
 
 def scheme_summary(feasible: Sequence[bool], scores: Sequence[float]) -> dict:
@@ -100,7 +106,8 @@ def embedding_schemes(
     """{scheme: {size: summary}} of classifiers and densities on the module's pooled embeddings.
 
     Classifiers are fitted on every training assembly (skipped when it holds one class only),
-    densities on its feasible assemblies only; both are cloned, the given estimators stay unfitted.
+    densities on its feasible assemblies only (skipped below MIN_DENSITY_FIT of them); both are
+    cloned, the given estimators stay unfitted.
     """
     classifiers, densities = classifiers or {}, densities or {}
     if not classifiers and not densities:
@@ -112,7 +119,13 @@ def embedding_schemes(
         summary = _per_size(test, classifier_scores(estimator, x_train, feasible, x_test))
         if summary is not None:
             out[f"classifier: {name}"] = summary
-    if feasible.sum() >= 2:
+    if densities and feasible.sum() < MIN_DENSITY_FIT:
+        log.warning(
+            "densities skipped: %d feasible training assemblies, need %d",
+            feasible.sum(),
+            MIN_DENSITY_FIT,
+        )
+    elif densities:
         for name, density in densities.items():
             fitted = clone(density).fit(x_train[feasible])
             out[f"density: {name}"] = _per_size(test, fitted.score_samples(x_test))

@@ -9,6 +9,7 @@ from sklearn.mixture import GaussianMixture
 
 from grace.evaluation.density import FlowDensity
 from grace.evaluation.feasibility import (
+    MIN_DENSITY_FIT,
     add_schemes,
     embedding_schemes,
     feasibility_report,
@@ -52,17 +53,22 @@ def test_one_nearest_neighbour_recalls_its_training_set(cfg_factory, labelled):
     assert defined and all(v == 1.0 for v in defined)
 
 
-def test_one_class_training_set_skips_classifiers_but_not_densities(cfg_factory, labelled):
+def test_one_class_training_set_skips_classifiers_but_not_densities(
+    cfg_factory, fake_simulator, labelled
+):
     cfg = cfg_factory("classifier=svm_linear")
-    feasible_only = [s for s in labelled if s.truth.feasible]
-    schemes = embedding_schemes(
-        make_module(cfg),
-        feasible_only,
-        labelled,
-        {"svm": instantiate(cfg.classifier.estimator)},
-        {"flow": FlowDensity(epochs=5)},
-    )
+    simulator = instantiate(fake_simulator)
+    rng = np.random.default_rng(5)
+    drawn = [simulator.sample(n, rng) for n in (4, 5) * 60]
+    feasible_only = [s for s in drawn if s.truth.feasible][:MIN_DENSITY_FIT]
+    assert len(feasible_only) == MIN_DENSITY_FIT
+    module = make_module(cfg)
+    svm = {"svm": instantiate(cfg.classifier.estimator)}
+    flow = {"flow": FlowDensity(epochs=5)}
+    schemes = embedding_schemes(module, feasible_only, labelled, svm, flow)
     assert set(schemes) == {"density: flow"}
+    # one feasible assembly fewer: no density either (too few points for its features)
+    assert embedding_schemes(module, feasible_only[1:], labelled, svm, flow) == {}
 
 
 def test_no_classifier_by_default(cfg_factory):

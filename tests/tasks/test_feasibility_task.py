@@ -44,3 +44,31 @@ def test_feasibility_task_trains_both_models_and_writes_every_scheme(cfg_factory
     md = (out / "results.md").read_text()
     assert "| best_sequence | 1.00 ± 0.00 / 1.00 |" in md
     assert (out / "feasibility_roc.png").read_bytes()[:4] == b"\x89PNG"
+
+
+@pytest.mark.slow
+def test_feasibility_task_end_to_end_on_simulator_data(cfg_factory):
+    """Real data, training, pooled embeddings, classifiers and densities (a minute or so)."""
+    cfg = cfg_factory(
+        "task=feasibility",
+        "scale=smoke",
+        "scale.sizes.3=40",
+        "scale.sizes.4=40",
+        "protocol.train_sizes=[3,4]",
+        "protocol.test_sizes=[3,4]",
+        "protocol.folds=2",
+        "trainer.max_epochs=2",
+        "trainer.progress_bar=false",
+        "task.fold_jobs=1",
+    )
+    run(cfg)
+    report = json.loads((Path(cfg.paths.output_dir) / "feasibility.json").read_text())
+    schemes = set(report["per_size"]["4"])
+    assert {
+        "best_sequence",
+        "classifier: svm_linear",
+        "density: flow",
+        "density: gaussian",
+    } <= schemes
+    assert {FEASIBLE_ONLY + "best_sequence", FEASIBLE_ONLY + "density: flow"} <= schemes
+    assert not any(name.startswith(FEASIBLE_ONLY + "classifier") for name in schemes)
