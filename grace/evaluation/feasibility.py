@@ -38,8 +38,9 @@ MAX_FPR = 0.05
 once in twenty."""
 ROC_GRID = np.linspace(0.0, 1.0, 101)
 MIN_DENSITY_FIT = 32
-"""Fewest feasible training assemblies a density is fitted on: fewer points than the features
-they are projected to (16 in grace/conf/task/feasibility.yaml) give no density at all."""
+"""Fewest feasible training assemblies a density is fitted on: a density in the 16 dimensions of
+grace/conf/task/feasibility.yaml's PCA needs more points than that, and a few dozen to mean
+anything."""
 
 log = logging.getLogger(__name__)
 
