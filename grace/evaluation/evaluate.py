@@ -18,7 +18,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from grace.domain.sample import LabelledAssembly
-from grace.evaluation.failures import FalseStep, failure_histogram, first_false_steps
+from grace.evaluation.failures import (
+    FAILURE_KINDS,
+    FalseStep,
+    failure_histogram,
+    first_false_steps,
+)
 from grace.evaluation.feasibility import PLANNING_SCHEMES, planning_scores, scheme_summary
 from grace.evaluation.metrics import (
     LAMBDAS,
@@ -165,7 +170,13 @@ def summarize(
             "schemes": schemes,
         },
         "curve": {"recall": recall.tolist(), "precision": precision.tolist()},
-        "failures": failure_histogram([s for e in evals for s in e.false_steps], threshold),
+        "failures": {
+            kind: failure_histogram(
+                [s for e in evals if e.feasible == (kind == "feasible") for s in e.false_steps],
+                threshold,
+            )
+            for kind in FAILURE_KINDS
+        },
         "passes": int(sum(e.passes for e in evals)),
     }
 

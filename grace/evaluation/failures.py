@@ -10,7 +10,8 @@ states, never by listing sequences:
 - `completions[s]`: complete paths from s whose every step scores ≥ λ;
 - a false step from s with part p starts `prefixes[s] · completions[s ∪ {p}]` wrong sequences.
 
-A wrong step whose branch dies in a dead end retrieves nothing and is not counted.
+A wrong step whose branch dies in a dead end retrieves nothing and is not counted. Feasible and
+infeasible assemblies are counted apart (FAILURE_KINDS).
 """
 
 from __future__ import annotations
@@ -27,6 +28,10 @@ from grace.planning.sequences import ScoredStates
 
 SCORE_BINS = 10
 """Equal-width score bins between λ and 1 of the failure histogram."""
+FAILURE_KINDS = ("feasible", "infeasible")
+"""Histograms are kept apart by assembly: on an infeasible one every retrieved sequence is wrong
+from its first step (no state of it can complete), which says nothing about where planning on a
+feasible assembly goes wrong."""
 
 
 @dataclass(frozen=True)
@@ -142,10 +147,15 @@ def merge_histograms(histograms: Sequence[dict]) -> dict:
 
 
 def failures_report(per_fold: Sequence[dict[int, dict]]) -> dict:
-    """failures.json: per size, the failure histograms of all folds summed, with totals."""
+    """failures.json: per size and kind of assembly (FAILURE_KINDS), the failure histograms of
+    all folds summed, with the number of wrong sequences."""
     out = {}
     for size in sorted({size for fold in per_fold for size in fold}):
-        merged = merge_histograms([fold[size]["failures"] for fold in per_fold if size in fold])
-        merged["wrong_sequences"] = sum(e["sequences"] for e in merged["by_step"].values())
-        out[str(size)] = merged
+        entry = {}
+        for kind in FAILURE_KINDS:
+            hists = [fold[size]["failures"][kind] for fold in per_fold if size in fold]
+            merged = merge_histograms(hists)
+            merged["wrong_sequences"] = sum(e["sequences"] for e in merged["by_step"].values())
+            entry[kind] = merged
+        out[str(size)] = entry
     return {"per_size": out}

@@ -38,37 +38,44 @@ def feasibility_roc(report: dict, path: Path) -> None:
 
 
 def failure_histograms(report: dict, path: Path) -> None:
-    """Top: wrongly retrieved sequences by the step index of their first false step. Bottom: the
-    score distribution of those steps per step index (share of the step's sequences per bin)."""
+    """Top: wrongly retrieved sequences by the step index of their first false step, feasible and
+    infeasible assemblies stacked. Bottom: on feasible assemblies, the score distribution of those
+    steps per step index (share of the step's sequences per score bin)."""
     per_size = report["per_size"]
     sizes = sorted(per_size, key=int)
     fig = Figure(figsize=(3.4 * max(len(sizes), 1), 5.6), layout="constrained")
     axes = fig.subplots(2, max(len(sizes), 1), squeeze=False)
     for column, size in enumerate(sizes):
-        entry = per_size[size]
+        feasible, infeasible = per_size[size]["feasible"], per_size[size]["infeasible"]
         top, bottom = axes[0, column], axes[1, column]
-        steps = sorted(entry["by_step"], key=int)
-        counts = [entry["by_step"][s]["sequences"] for s in steps]
-        top.bar([int(s) for s in steps], counts, color="tab:red")
-        top.set(
-            title=f"A{size}: {entry['wrong_sequences']} wrong sequences", xlabel="first false step"
-        )
-        edges = np.asarray(entry["bins"])
+        steps = sorted({*feasible["by_step"], *infeasible["by_step"]}, key=int)
+        below = np.zeros(len(steps))
+        for kind, entry, colour in (
+            ("feasible", feasible, "tab:red"),
+            ("infeasible", infeasible, "0.6"),
+        ):
+            counts = np.array([entry["by_step"].get(s, {}).get("sequences", 0) for s in steps])
+            top.bar([int(s) for s in steps], counts, bottom=below, color=colour, label=kind)
+            below = below + counts
+        total = feasible["wrong_sequences"] + infeasible["wrong_sequences"]
+        top.set(title=f"A{size}: {total} wrong sequences", xlabel="first false step")
+        edges = np.asarray(feasible["bins"])
         centres = (edges[:-1] + edges[1:]) / 2
-        for step in steps:
-            hist = np.asarray(entry["by_step"][step]["sequences_by_score"], dtype=float)
+        for step, entry in feasible["by_step"].items():
+            hist = np.asarray(entry["sequences_by_score"], dtype=float)
             if hist.sum():
                 bottom.plot(
                     centres, hist / hist.sum(), marker="o", markersize=3, label=f"step {step}"
                 )
-        bottom.set(
-            xlabel="score of the false step", xlim=(edges[0], edges[-1]) if len(edges) else None
-        )
-        if steps:
+        bottom.set(xlabel="score of the false step (feasible assemblies)")
+        if len(edges):
+            bottom.set_xlim(edges[0], edges[-1])
+        if feasible["by_step"]:
             bottom.legend(fontsize=6)
-        else:
+        if not steps:
             top.text(0.5, 0.5, "no wrong sequence", ha="center", transform=top.transAxes)
     axes[0, 0].set_ylabel("wrong sequences")
+    axes[0, 0].legend(fontsize=6)
     axes[1, 0].set_ylabel("share of the step's sequences")
     fig.suptitle("First false steps of wrongly retrieved sequences (all folds)")
     save_figure(fig, Path(path))

@@ -127,3 +127,18 @@ def test_step_auc_off_the_true_orders_on_a_hand_case():
     # off-path scores .9 (neg), .7 (pos), .2 and 0s (neg): the PR curve runs (1, 1/2) → (0, 0)
     # → (0, 1), area 1/4
     assert summary["step_auc_offpath"] == pytest.approx(0.25)
+
+
+def test_failures_of_feasible_and_infeasible_assemblies_are_kept_apart():
+    blocked = _sample(3, lambda s, p: s.bit_count() < 2)  # infeasible
+    failures = evaluate_by_size(constant_scorer(0), [CHAIN, blocked])[3]["failures"]
+    # CHAIN: all 6 orders retrieved at λ = 0.5; (2, 0, 1) and (2, 1, 0) go wrong at step 1,
+    # (0, 2, 1) and (1, 2, 0) at step 2 (from two different states)
+    feasible = failures["feasible"]["by_step"]
+    assert {k: (v["sequences"], v["false_steps"]) for k, v in feasible.items()} == {
+        "1": (2, 1),
+        "2": (2, 2),
+    }
+    # every sequence of the infeasible one is wrong from its first step
+    infeasible = failures["infeasible"]["by_step"]
+    assert {k: (v["sequences"], v["false_steps"]) for k, v in infeasible.items()} == {"1": (6, 3)}

@@ -89,5 +89,12 @@ def test_merged_histograms_sum_counts_and_reweight_mean_scores():
     assert merged["by_step"]["1"]["sequences"] == 4
     assert merged["by_step"]["1"]["mean_score"] == pytest.approx((3 * 0.9 + 0.7) / 4)
     assert merged["by_step"]["2"]["steps_by_score"][0] == 1
-    report = failures_report([{5: {"failures": a}}, {5: {"failures": b}}])
-    assert report["per_size"]["5"]["wrong_sequences"] == 5
+    empty = failure_histogram([], 0.5)
+    report = failures_report(
+        [
+            {5: {"failures": {"feasible": a, "infeasible": empty}}},
+            {5: {"failures": {"feasible": b, "infeasible": b}}},
+        ]
+    )
+    assert report["per_size"]["5"]["feasible"]["wrong_sequences"] == 5
+    assert report["per_size"]["5"]["infeasible"]["wrong_sequences"] == 1

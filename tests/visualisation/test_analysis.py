@@ -17,7 +17,10 @@ def _reports(sizes):
             folds[0], {"bottleneck": {size: scheme_summary(feasible, [0.9, 0.7, 0.2, 0.6])}}
         )
         steps = [FalseStep(0, 1, 1, 0.95, 12), FalseStep(3, 2, 3, 0.55, 2)]
-        folds[0][size]["failures"] = failure_histogram(steps, 0.5)
+        folds[0][size]["failures"] = {
+            "feasible": failure_histogram(steps, 0.5),
+            "infeasible": failure_histogram([FalseStep(0, 0, 1, 0.7, 24)], 0.5),
+        }
     return {"feasibility": feasibility_report(folds), "failures": failures_report(folds)}
 
 
