@@ -1,13 +1,13 @@
-"""Plan and measure one policy on test assemblies (SPEC §6–§7).
+"""Plan and measure one policy on test assemblies (paper, Algorithm 1 and Sec. V-A.2).
 
 Every assembly's reachable states are scored once (λ = 0, ≤ 2^N − 1 forward passes) and every
 metric reads that one table: the λ sweep counts sequences by dynamic programming, P@k runs the
-best-first top-k search on the table, feasibility thresholds the bottleneck score.
+best-first top-k search on the table, the feasibility schemes read the best complete sequence,
+the failure analysis counts first false steps.
 
-Step-AUC test states: every non-complete state that lies on some ground-truth order, labelled
-with its valid next parts, plus the empty state of each infeasible assembly (all labels 0, since
-no first part leads to completion). All N part scores of a state count, placed parts as
-negatives, as in the reference's per-node evaluation.
+Step AUC reads two state sets (grace/evaluation/step_states.py): the paper's, on the ground-truth
+orders, and the off-path states the planner enters after a wrong step. All N part scores of a
+state count, placed parts as negatives, as in the reference's per-node evaluation.
 """
 
 from __future__ import annotations
@@ -18,23 +18,35 @@ from dataclasses import dataclass
 import numpy as np
 
 from grace.domain.sample import LabelledAssembly
+from grace.evaluation.failures import (
+    FAILURE_KINDS,
+    FalseStep,
+    failure_histogram,
+    first_false_steps,
+)
+from grace.evaluation.feasibility import PLANNING_SCHEMES, planning_scores, scheme_summary
 from grace.evaluation.metrics import (
     LAMBDAS,
     feasibility_confusion,
-    feasibility_roc,
     precision_at_k,
     sequence_auc,
     sequence_pr_curve,
     step_auc,
 )
-from grace.planning.counting import bottleneck, label_table, retrieval_counts
-from grace.planning.sequences import Scorer, score_states
+from grace.evaluation.step_states import label_matrix, offpath_states, onpath_states
+from grace.planning.counting import label_table, retrieval_counts
+from grace.planning.sequences import ScoredStates, Scorer, score_states
 from grace.planning.topk import table_scores, top_k
 
 
 @dataclass(eq=False)
 class AssemblyEval:
-    """What one assembly contributes to the metrics of its size."""
+    """What one assembly contributes to the metrics of its size.
+
+    `feasibility_scores` holds one score per planning scheme (grace/evaluation/feasibility.py):
+    `sequences` (how many complete sequences Algorithm 1 retrieves at λ), `best_sequence`
+    (probability of the most probable complete sequence), `bottleneck` (its best lowest step).
+    """
 
     size: int
     feasible: bool
@@ -43,8 +55,11 @@ class AssemblyEval:
     hits: np.ndarray
     step_scores: np.ndarray
     step_labels: np.ndarray
+    offpath_scores: np.ndarray
+    offpath_labels: np.ndarray
     topk_relevant: list[bool]
-    feasibility_score: float
+    feasibility_scores: dict[str, float]
+    false_steps: list[FalseStep]
     passes: int
 
 
@@ -57,25 +72,43 @@ def evaluate_assembly(
 ) -> AssemblyEval:
     """Score the assembly's states once and derive everything the metrics need."""
     n = sample.size
+    truth = sample.truth
     scored = score_states(scorer, sample.assembly, threshold=0.0)
-    retrieved, hits = retrieval_counts(scored, sample.truth, lambdas)
-    states = sample.truth.order_states()
-    valid = label_table(sample.truth)
-    bits = np.int64(1) << np.arange(n, dtype=np.int64)
+    retrieved, hits = retrieval_counts(scored, truth, lambdas)
+    on_states, on_masks = onpath_states(truth)
+    off_states, off_masks = offpath_states(truth)
+    table, extra = _step_table(scorer, sample, scored, np.concatenate([on_states, off_states]))
     best = top_k(table_scores(scored), n, k_max, threshold)
-    relevant = [_is_order(r.sequence, valid) for r in best]
+    valid = label_table(truth)
     return AssemblyEval(
         size=n,
-        feasible=sample.truth.feasible,
-        relevant=sample.truth.n_orders(),
+        feasible=truth.feasible,
+        relevant=truth.n_orders(),
         retrieved=retrieved,
         hits=hits,
-        step_scores=scored.table[states],
-        step_labels=(valid[states][:, None] & bits) != 0,
-        topk_relevant=relevant,
-        feasibility_score=bottleneck(scored),
-        passes=scored.passes,
+        step_scores=table[on_states],
+        step_labels=label_matrix(on_masks, n),
+        offpath_scores=table[off_states],
+        offpath_labels=label_matrix(off_masks, n),
+        topk_relevant=[_is_order(r.sequence, valid) for r in best],
+        feasibility_scores=planning_scores(scored, truth, threshold),
+        false_steps=first_false_steps(scored, truth, threshold),
+        passes=scored.passes + extra,
     )
+
+
+def _step_table(
+    scorer: Scorer, sample: LabelledAssembly, scored: ScoredStates, states: np.ndarray
+) -> tuple[np.ndarray, int]:
+    """The score table for the step AUCs, and how many extra states that cost: planning at λ = 0
+    reaches every state unless a policy scores below 0 (the `never` floor). Those states are
+    scored into a copy, so that planning metrics never see states the truth chose."""
+    missing = np.unique(states[np.isnan(scored.table[states, 0])])
+    if not missing.size:
+        return scored.table, 0
+    table = scored.table.copy()
+    table[missing] = scorer(sample.assembly, missing)
+    return table, int(missing.size)
 
 
 def _is_order(sequence: Sequence[int], valid: np.ndarray) -> bool:
@@ -87,8 +120,20 @@ def _is_order(sequence: Sequence[int], valid: np.ndarray) -> bool:
     return True
 
 
-def summarize(evals: Sequence[AssemblyEval], ks: Sequence[int] = (1, 2, 3)) -> dict:
-    """Metrics of one fold on one size; undefined ones are NaN (the report drops them)."""
+def _pooled_step_auc(scores: Sequence[np.ndarray], labels: Sequence[np.ndarray]) -> float:
+    return step_auc(
+        np.concatenate([x.ravel() for x in scores]), np.concatenate([y.ravel() for y in labels])
+    )
+
+
+def summarize(
+    evals: Sequence[AssemblyEval], ks: Sequence[int] = (1, 2, 3), threshold: float = 0.5
+) -> dict:
+    """Metrics of one fold on one size; undefined ones are NaN (the report drops them).
+
+    `curve`, the feasibility schemes' `roc` and `failures` are per-fold material for the figures
+    and side files; the report aggregates the rest.
+    """
     feasible = [e for e in evals if e.relevant > 0]
     shape = (len(feasible), len(evals[0].retrieved))
     retrieved = np.array([e.retrieved for e in feasible]).reshape(shape)
@@ -100,24 +145,38 @@ def summarize(evals: Sequence[AssemblyEval], ks: Sequence[int] = (1, 2, 3)) -> d
         recall, precision = np.zeros(0), np.zeros(0)
     is_feasible = np.array([e.feasible for e in evals])
     found = np.array([len(e.topk_relevant) > 0 for e in evals])
-    _, _, roc_auc = feasibility_roc(is_feasible, [e.feasibility_score for e in evals])
+    schemes = {
+        name: scheme_summary(is_feasible, [e.feasibility_scores[name] for e in evals])
+        for name in PLANNING_SCHEMES
+    }
+    topk = [e.topk_relevant for e in evals]
+    n_relevant = [e.relevant for e in evals]
     return {
         "assemblies": len(evals),
-        "step_auc": step_auc(
-            np.concatenate([e.step_scores.ravel() for e in evals]),
-            np.concatenate([e.step_labels.ravel() for e in evals]),
+        "step_auc": _pooled_step_auc(
+            [e.step_scores for e in evals], [e.step_labels for e in evals]
         ),
+        "step_auc_offpath": _pooled_step_auc(
+            [e.offpath_scores for e in evals], [e.offpath_labels for e in evals]
+        ),
+        "offpath_states": int(sum(len(e.offpath_scores) for e in evals)),
         "seq_auc": sequence_auc(retrieved, hits, relevant),
-        "p_at_k": {
-            str(k): precision_at_k([e.topk_relevant for e in evals], [e.relevant for e in evals], k)
-            for k in ks
-        },
+        "p_at_k": {str(k): precision_at_k(topk, n_relevant, k) for k in ks},
+        "p_at_k_strict": {str(k): precision_at_k(topk, n_relevant, k, empty_value=0.0) for k in ks},
         "no_sequence": int((is_feasible & ~found).sum()),
         "feasibility": {
-            "roc_auc": roc_auc,
+            "roc_auc": schemes["bottleneck"]["roc_auc"],
             "confusion": feasibility_confusion(is_feasible, found),
+            "schemes": schemes,
         },
         "curve": {"recall": recall.tolist(), "precision": precision.tolist()},
+        "failures": {
+            kind: failure_histogram(
+                [s for e in evals if e.feasible == feasible for s in e.false_steps],
+                threshold,
+            )
+            for kind, feasible in FAILURE_KINDS.items()
+        },
         "passes": int(sum(e.passes for e in evals)),
     }
 
@@ -133,4 +192,4 @@ def evaluate_by_size(
     for sample in samples:
         evaluated = evaluate_assembly(scorer, sample, k_max=max(ks), threshold=threshold)
         by_size.setdefault(sample.size, []).append(evaluated)
-    return {size: summarize(evals, ks) for size, evals in sorted(by_size.items())}
+    return {size: summarize(evals, ks, threshold) for size, evals in sorted(by_size.items())}

@@ -1,4 +1,8 @@
-"""Metrics of SPEC §7 as pure functions on arrays (no model or planner imports)."""
+"""The paper's metrics (Sec. V-A.2, Metrics) and their strict twins, as pure functions on arrays.
+
+Definitions, with the floors that read them honestly, are in docs/metrics.md. No model or planner
+imports: everything here takes counts, scores and labels.
+"""
 
 from __future__ import annotations
 
@@ -19,7 +23,7 @@ def step_auc(scores: np.ndarray, labels: np.ndarray) -> float:
 
 
 LAMBDAS = np.arange(100) / 100.0
-"""The λ sweep of the complete-sequence AUC: 100 values in [0, 1) (SPEC §7)."""
+"""The λ sweep of the complete-sequence AUC: 100 values in [0, 1) (docs/metrics.md)."""
 
 
 def ir_precision(hits: np.ndarray, retrieved: np.ndarray) -> np.ndarray:
@@ -47,7 +51,8 @@ def sequence_pr_curve(
 
 
 def sequence_auc(retrieved: np.ndarray, hits: np.ndarray, relevant: np.ndarray) -> float:
-    """Complete-sequence AUC: area under the closed mean IR precision–recall curve (SPEC §7).
+    """Complete-sequence AUC: area under the closed mean IR precision–recall curve (paper,
+    Sec. V-A.2, Metrics; the closing points are in docs/metrics.md).
 
     NaN when no assembly has a ground-truth sequence.
     """
@@ -57,16 +62,20 @@ def sequence_auc(retrieved: np.ndarray, hits: np.ndarray, relevant: np.ndarray) 
     return float(auc(recall, precision))
 
 
-def precision_at_k(topk_relevant: list[list[bool]], relevant: np.ndarray, k: int) -> dict:
-    """P@k: IR precision of the k most probable retrieved sequences (SPEC §7).
+def precision_at_k(
+    topk_relevant: list[list[bool]], relevant: np.ndarray, k: int, empty_value: float = 1.0
+) -> dict:
+    """P@k: IR precision of the k most probable retrieved sequences (paper, Sec. V-A.2, Metrics).
 
     `topk_relevant[a]` flags, best first, whether each retrieved sequence of assembly `a` is a
     ground-truth one (at least its first k). Only assemblies with ≥ k ground-truth sequences
-    count. An assembly with no retrieved sequence scores 1 by the empty-retrieval rule, so
-    `empty` says how many of the counted assemblies that was; `value` is NaN if none count.
+    count. An assembly with no retrieved sequence scores `empty_value`: 1 by the paper's
+    empty-retrieval rule, 0 for the strict P@k (a planner that returns nothing for a feasible
+    assembly has failed it). `empty` says how many of the counted assemblies that was; `value` is
+    NaN if none count.
     """
     counted = [flags[:k] for flags, n in zip(topk_relevant, relevant, strict=True) if n >= k]
-    values = [float(np.mean(flags)) if flags else 1.0 for flags in counted]
+    values = [float(np.mean(flags)) if flags else empty_value for flags in counted]
     return {
         "value": float(np.mean(values)) if values else float("nan"),
         "assemblies": len(counted),
@@ -98,3 +107,12 @@ def feasibility_roc(
         return np.array([0.0, 1.0]), np.array([0.0, 1.0]), float("nan")
     fpr, tpr, _ = roc_curve(feasible, np.asarray(score, dtype=float))
     return fpr, tpr, float(roc_auc_score(feasible, score))
+
+
+def tpr_at_fpr(fpr: np.ndarray, tpr: np.ndarray, max_fpr: float = 0.05) -> float:
+    """The highest TPR of a threshold whose FPR is ≤ `max_fpr` (no interpolation between
+    thresholds: every point is one a deterministic classifier reaches). NaN for an undefined ROC.
+    """
+    fpr, tpr = np.asarray(fpr, dtype=float), np.asarray(tpr, dtype=float)
+    allowed = fpr <= max_fpr + 1e-12
+    return float(tpr[allowed].max()) if allowed.any() else float("nan")

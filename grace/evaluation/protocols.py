@@ -1,4 +1,5 @@
-"""Fold splits of the paper's protocols (SPEC §8): intra-sized, many-to-one, one-to-many.
+"""Fold splits of the paper's protocols (Sec. V-B, docs/protocols.md): intra-sized, many-to-one
+and one-to-many.
 
 All three use one rule: the assemblies are split into `folds` parts with a fixed seed, stratified
 by size; fold f tests on its own assemblies of the test sizes and trains on the other folds'
@@ -12,6 +13,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+
+from grace.domain.sample import LabelledAssembly
 
 
 @dataclass(frozen=True)
@@ -95,3 +98,11 @@ def _validation(
         members = rng.permutation(train[sizes[train] == size])
         picked.append(members[: round(fraction * len(members))])
     return np.sort(np.concatenate(picked)) if picked else np.zeros(0, dtype=np.int64)
+
+
+def training_subset(
+    samples: Sequence[LabelledAssembly], feasible_only: bool
+) -> list[LabelledAssembly]:
+    """The assemblies a model trains (and early-stops) on: all, or only the feasible ones for the
+    paper's ablation "#sequences, feasible only" (Sec. V-B.3, Fig. 5)."""
+    return [s for s in samples if s.truth.feasible or not feasible_only]

@@ -1,12 +1,14 @@
 """results.json and results.md: fold metrics aggregated as mean ± std, in the paper's layout.
 
-Schema (issue 4): sizes are string keys; a metric undefined for a size (no fold defined it) is
-absent, never zero. Besides the required keys each size also carries counts that keep the
-numbers honest: `assemblies`; `forward_passes` (states scored, ≤ 2^N − 1 per assembly);
-per-k `assemblies` and `empty` (assemblies counted for P@k and how many of those had no complete
-sequence, which the empty-retrieval rule scores as 1); `no_sequence` (feasible assemblies with no
-complete sequence at λ = 0.5) and the feasibility confusion.
-std is the population standard deviation over folds (ddof = 0).
+Schema: sizes are string keys; a metric undefined for a size (no fold defined it) is absent,
+never zero. Per size: `step_auc` (the paper's, on-path) and `step_auc_offpath` with the number of
+`offpath_states`; `seq_auc`; `p_at_k` (the paper's empty-retrieval rule: an empty retrieval
+scores 1) and `p_at_k_strict` (it scores 0), each per k with `assemblies` counted and how many of
+them were `empty`; `no_sequence` (feasible assemblies with no complete sequence at λ = 0.5);
+`feasibility` with its confusion counts and, per scheme (grace/evaluation/feasibility.py),
+`roc_auc` and `tpr_at_fpr`; `assemblies` and `forward_passes` (states scored, ≤ 2^N − 1 per
+assembly). Definitions in docs/metrics.md. std is the population standard deviation over folds
+(ddof = 0). results.md leads with the strict figures, then the paper's.
 """
 
 from __future__ import annotations
@@ -22,14 +24,19 @@ import numpy as np
 from grace.data.atomic import write_text_atomic
 
 METRIC_ROWS = (
+    ("P@1 (strict: empty = 0)", ("p_at_k_strict", "1")),
+    ("P@2 (strict: empty = 0)", ("p_at_k_strict", "2")),
+    ("P@3 (strict: empty = 0)", ("p_at_k_strict", "3")),
+    ("Step-by-Step AUC (off-path)", ("step_auc_offpath",)),
     ("Step-by-Step AUC", ("step_auc",)),
     ("Complete Sequence AUC", ("seq_auc",)),
-    ("P@1", ("p_at_k", "1")),
-    ("P@2", ("p_at_k", "2")),
-    ("P@3", ("p_at_k", "3")),
-    ("Feasibility ROC AUC", ("feasibility", "roc_auc")),
-    ("Feasibility ROC AUC (classifier)", ("feasibility", "classifier_roc_auc")),
+    ("P@1 (paper: empty = 1)", ("p_at_k", "1")),
+    ("P@2 (paper: empty = 1)", ("p_at_k", "2")),
+    ("P@3 (paper: empty = 1)", ("p_at_k", "3")),
+    ("Feasibility ROC AUC (best sequence)", ("feasibility", "schemes", "best_sequence", "roc_auc")),
+    ("Feasibility ROC AUC (bottleneck)", ("feasibility", "schemes", "bottleneck", "roc_auc")),
 )
+"""Rows of the results table, strict figures first (label, path into a size's entry)."""
 
 
 def mean_std(values: Sequence[float]) -> dict[str, float] | None:
@@ -45,6 +52,29 @@ def _put(out: dict, key: str, value: Any) -> None:
         out[key] = value
 
 
+def _p_at_k(folds: Sequence[dict], key: str) -> dict | None:
+    out = {}
+    for k in folds[0].get(key, {}):
+        stat = mean_std([f[key][k]["value"] for f in folds])
+        if stat is not None:
+            stat["assemblies"] = sum(f[key][k]["assemblies"] for f in folds)
+            stat["empty"] = sum(f[key][k]["empty"] for f in folds)
+            out[k] = stat
+    return out or None
+
+
+def _schemes(folds: Sequence[dict]) -> dict | None:
+    per_fold = [f["feasibility"].get("schemes", {}) for f in folds]
+    out = {}
+    for name in dict.fromkeys(n for schemes in per_fold for n in schemes):
+        summaries = [schemes[name] for schemes in per_fold if name in schemes]
+        auc = mean_std([x["roc_auc"] for x in summaries])
+        if auc is not None:
+            out[name] = {"roc_auc": auc}
+            _put(out[name], "tpr_at_fpr", mean_std([x["tpr_at_fpr"] for x in summaries]))
+    return out or None
+
+
 def aggregate_size(folds: Sequence[dict]) -> dict:
     """Aggregate one size's fold summaries (from evaluation.evaluate.summarize)."""
     out: dict[str, Any] = {
@@ -53,15 +83,11 @@ def aggregate_size(folds: Sequence[dict]) -> dict:
         "forward_passes": sum(f["passes"] for f in folds),
     }
     _put(out, "step_auc", mean_std([f["step_auc"] for f in folds]))
+    _put(out, "step_auc_offpath", mean_std([f["step_auc_offpath"] for f in folds]))
+    out["offpath_states"] = sum(f["offpath_states"] for f in folds)
     _put(out, "seq_auc", mean_std([f["seq_auc"] for f in folds]))
-    p_at_k = {}
-    for k in folds[0]["p_at_k"]:
-        stat = mean_std([f["p_at_k"][k]["value"] for f in folds])
-        if stat is not None:
-            stat["assemblies"] = sum(f["p_at_k"][k]["assemblies"] for f in folds)
-            stat["empty"] = sum(f["p_at_k"][k]["empty"] for f in folds)
-            p_at_k[k] = stat
-    _put(out, "p_at_k", p_at_k or None)
+    _put(out, "p_at_k", _p_at_k(folds, "p_at_k"))
+    _put(out, "p_at_k_strict", _p_at_k(folds, "p_at_k_strict"))
     out["no_sequence"] = sum(f["no_sequence"] for f in folds)
     feasibility: dict[str, Any] = {
         "confusion": {
@@ -69,9 +95,7 @@ def aggregate_size(folds: Sequence[dict]) -> dict:
             for key in ("tp", "fp", "tn", "fn")
         }
     }
-    _put(feasibility, "roc_auc", mean_std([f["feasibility"]["roc_auc"] for f in folds]))
-    classifier = [f["feasibility"].get("classifier_roc_auc") for f in folds]
-    _put(feasibility, "classifier_roc_auc", mean_std(classifier))
+    _put(feasibility, "schemes", _schemes(folds))
     out["feasibility"] = feasibility
     return out
 
@@ -108,30 +132,14 @@ def cell(stat: dict | None) -> str:
     return text
 
 
-OPTIONAL_ROWS = frozenset({"Feasibility ROC AUC (classifier)"})
-"""Rows printed only where defined (runs without a classifier have none); the paper's rows always
-print, with `–` for an undefined metric."""
-
-
-def row_cells(label: str, stats: Sequence[dict | None]) -> list[str] | None:
-    """The cells of one metric row; None for an optional row undefined in every column."""
-    if label in OPTIONAL_ROWS and all(stat is None for stat in stats):
-        return None
-    return [cell(stat) for stat in stats]
-
-
 def metrics_table(policies: dict[str, dict[str, dict]], sizes: Sequence[str]) -> str:
-    """Markdown table: a row per (policy, metric), a column per test size (paper Table 2).
-
-    An optional row (the classifier's) is left out where it is undefined for every size.
-    """
+    """Markdown table: a row per (policy, metric), a column per test size (paper Table 2)."""
     head = "| Policy | Metric | " + " | ".join(f"A{s}" for s in sizes) + " |"
     lines = [head, "|" + " --- |" * (len(sizes) + 2)]
     for policy, per_size in policies.items():
         for label, path in METRIC_ROWS:
-            cells = row_cells(label, [lookup(per_size.get(s, {}), path) for s in sizes])
-            if cells is not None:
-                lines.append(f"| {policy} | {label} | " + " | ".join(cells) + " |")
+            cells = [cell(lookup(per_size.get(s, {}), path)) for s in sizes]
+            lines.append(f"| {policy} | {label} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
@@ -148,6 +156,7 @@ def counts_table(per_size: dict[str, dict], sizes: Sequence[str]) -> str:
 
     row("test assemblies", lambda e: e["assemblies"])
     row("feasible, no sequence at λ=0.5", lambda e: e["no_sequence"])
+    row("off-path states (step AUC off-path)", lambda e: e.get("offpath_states"))
     for k in ("1", "2", "3"):
         row(f"P@{k} counted / empty", lambda e, k=k: _pk_count(e, k))
     row(
@@ -164,25 +173,72 @@ def _pk_count(entry: dict, k: str) -> str | None:
     return None if stat is None else f"{stat['assemblies']} / {stat['empty']}"
 
 
+def feasibility_table(per_size: dict[str, dict], sizes: Sequence[str]) -> str:
+    """A row per feasibility scheme: ROC AUC and TPR at FPR ≤ 0.05 per test size.
+
+    `per_size[size]` maps scheme → {"roc_auc": stat, "tpr_at_fpr": stat} (results.json's
+    `feasibility.schemes`, or feasibility.json's sizes).
+    """
+    names = list(dict.fromkeys(n for s in sizes for n in per_size.get(s, {})))
+    head = "| Scheme | " + " | ".join(f"A{s} ROC AUC / TPR@FPR≤0.05" for s in sizes) + " |"
+    lines = [head, "|" + " --- |" * (len(sizes) + 1)]
+    for name in names:
+        cells = []
+        for s in sizes:
+            entry = per_size.get(s, {}).get(name)
+            if entry is None:
+                cells.append("–")
+            else:
+                tpr = entry.get("tpr_at_fpr")
+                cells.append(
+                    cell(entry["roc_auc"]) + " / " + ("–" if tpr is None else f"{tpr['mean']:.2f}")
+                )
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def health_lines(health: Sequence[dict]) -> str:
+    """A line per fold: collapsed or not, why, and its step AUC against the floor per size."""
+    lines = []
+    for fold in health:
+        sizes = ", ".join(
+            f"A{s} {v['step_auc']:.3f} (floor {v['floor']:.3f})" for s, v in fold["sizes"].items()
+        )
+        state = "**COLLAPSED**: " + "; ".join(fold["reasons"]) if fold["collapsed"] else "ok"
+        model = f" ({fold['model']})" if "model" in fold else ""
+        lines.append(f"- fold {fold['fold']}{model}: {state}. Test step AUC {sizes}.")
+    return "\n".join(lines)
+
+
 def results_markdown(results: dict) -> str:
-    """The human-readable results.md of one experiment run."""
+    """The human-readable results.md of one experiment run: strict figures first."""
     sizes = list(results["per_size"])
     policies = {"GRACE": results["per_size"]}
     policies.update({name: b["per_size"] for name, b in results["baselines"].items()})
-    return (
-        "\n\n".join(
-            [
-                f"# Results: protocol {results['protocol']}",
-                f"Train sizes {results['train_sizes']}, test sizes {results['test_sizes']}, "
-                f"{results['folds']}-fold cross-validation, mean ± std over folds, "
-                f"{results['seconds']:.0f} s.",
-                metrics_table(policies, sizes),
-                "## Counts (GRACE)",
-                counts_table(results["per_size"], sizes),
-            ]
-        )
-        + "\n"
-    )
+    parts = [
+        f"# Results: protocol {results['protocol']}",
+        f"Train sizes {results['train_sizes']}, test sizes {results['test_sizes']}, "
+        f"{results['folds']}-fold cross-validation, mean ± std over folds, "
+        f"{results['seconds']:.0f} s. Rows lead with the strict figures (an empty retrieval "
+        "counts 0; step AUC off the true orders), then the paper's; the baselines `constant` and "
+        "`never` are floors (docs/metrics.md).",
+    ]
+    collapsed = results.get("collapsed_folds")
+    if collapsed:
+        parts.append(f"**Warning: folds {collapsed} collapsed** (see Folds below).")
+    parts += [
+        metrics_table(policies, sizes),
+        "## Counts (GRACE)",
+        counts_table(results["per_size"], sizes),
+    ]
+    schemes = {
+        s: lookup(e, ("feasibility", "schemes")) or {} for s, e in results["per_size"].items()
+    }
+    if any(schemes.values()):
+        parts += ["## Feasibility (GRACE)", feasibility_table(schemes, sizes)]
+    if results.get("fold_health"):
+        parts += ["## Folds", health_lines(results["fold_health"])]
+    return "\n\n".join(parts) + "\n"
 
 
 def write_results(results: dict, out_dir: Path) -> None:

@@ -1,4 +1,4 @@
-"""Benchmark of Algorithm 1: distinct states versus one forward pass per prefix (SPEC §6).
+"""Benchmark of Algorithm 1: distinct states versus one forward pass per prefix (paper, Alg. 1).
 
 Scoring every order of an A7 assembly needs 127 distinct states but 8,660 prefixes. The prefix
 side runs the reference's forward passes (one single-state call per prefix, in DFS order); it can

@@ -1,4 +1,4 @@
-"""Counts over all thresholds at once, from one set of scored states (SPEC §6–§7).
+"""Counts over all thresholds at once, from one set of scored states (paper, Algorithm 1).
 
 Algorithm 1 at λ retrieves exactly the complete paths of the state DAG whose every step scores
 ≥ λ. Counting those paths (and those that are ground-truth orders) needs no listing: a dynamic
@@ -18,7 +18,8 @@ from grace.planning.sequences import ScoredStates
 
 
 @lru_cache(maxsize=32)
-def _levels(n_parts: int) -> list[np.ndarray]:
+def state_levels(n_parts: int) -> list[np.ndarray]:
+    """Non-complete state bitmasks of N parts grouped by how many parts are placed (0 … N−1)."""
     states = np.arange(full_mask(n_parts) + 1, dtype=np.int64)
     popcount = np.array([int(s).bit_count() for s in states])
     return [states[popcount == k] for k in range(n_parts)]
@@ -46,7 +47,7 @@ def retrieval_counts(
     ret = np.zeros((full_mask(n) + 1, lams.size))
     hit = np.zeros_like(ret)
     ret[0] = hit[0] = 1.0
-    for level in _levels(n):
+    for level in state_levels(n):
         level = level[ret[level].any(axis=1)]
         for part in range(n):
             states = level[(level >> part & 1) == 0]
@@ -59,18 +60,29 @@ def retrieval_counts(
     return ret[full], hit[full]
 
 
+def _best_path(scored: ScoredStates, combine, start: float) -> float:
+    """Max over complete paths of the steps' scores folded by `combine` (from `start`)."""
+    n = scored.n_parts
+    best = np.full(full_mask(n) + 1, -np.inf)
+    best[0] = start
+    for level in state_levels(n):
+        for part in range(n):
+            states = level[(level >> part & 1) == 0]
+            step = combine(best[states], scored.table[states, part])
+            child = states | (np.int64(1) << part)
+            best[child] = np.maximum(best[child], np.nan_to_num(step, nan=-np.inf))
+    return float(best[full_mask(n)])
+
+
 def bottleneck(scored: ScoredStates) -> float:
     """Largest λ at which Algorithm 1 still finds a complete sequence (max over paths of min step).
 
     Thresholding it at λ is exactly "some complete sequence found at λ": the feasibility score.
     """
-    n = scored.n_parts
-    best = np.full(full_mask(n) + 1, -np.inf)
-    best[0] = np.inf
-    for level in _levels(n):
-        for part in range(n):
-            states = level[(level >> part & 1) == 0]
-            step = np.minimum(best[states], scored.table[states, part])
-            child = states | (np.int64(1) << part)
-            best[child] = np.maximum(best[child], np.nan_to_num(step, nan=-np.inf))
-    return float(best[full_mask(n)])
+    return _best_path(scored, np.minimum, np.inf)
+
+
+def best_probability(scored: ScoredStates) -> float:
+    """Probability of the most probable complete sequence (max over paths of the product of
+    step scores): the first sequence top-k returns at λ = 0, found without listing any."""
+    return _best_path(scored, np.multiply, 1.0)

@@ -1,4 +1,4 @@
-"""Algorithm 1 (SPEC §6) over distinct states instead of prefixes.
+"""Algorithm 1 of the paper (Sec. IV-C.3) over distinct states instead of prefixes.
 
 The reference traversal runs one forward pass per prefix of the state tree (8,660 for N = 7).
 A state is a set, so its scores do not depend on the order that reached it: we score each
@@ -18,7 +18,8 @@ import numpy as np
 from grace.domain.assembly import Assembly, full_mask
 
 Scorer = Callable[[Assembly, np.ndarray], np.ndarray]
-"""`scorer(assembly, states)`: per-part next-step scores in [0, 1], shape (len(states), N)."""
+"""`scorer(assembly, states)`: per-part next-step scores, shape (len(states), N); in [0, 1] for a
+policy (a floor baseline may score below 0 to never pass a threshold)."""
 
 
 @dataclass(eq=False)
@@ -99,7 +100,7 @@ class Plan:
 
 
 def plan(scored: ScoredStates, threshold: float) -> Plan:
-    """Every complete sequence whose step scores are all ≥ `threshold` (SPEC §6, Algorithm 1)."""
+    """Every complete sequence whose step scores are all ≥ `threshold` (paper, Algorithm 1)."""
     if threshold < scored.threshold:
         raise ValueError(
             f"threshold {threshold} is below the λ = {scored.threshold} the states were scored "

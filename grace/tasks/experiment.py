@@ -2,8 +2,9 @@
 
 For each fold of the chosen protocol (docs/protocols.md) it trains one model, plans every test
 assembly with Algorithm 1 over distinct states and computes the metrics of docs/metrics.md per
-test size, for GRACE and for the baselines on the same test assemblies. Writes results.json,
-results.md, pr_curves.png and p_at_k.png into the run folder and returns the mean sequence AUC
+test size, for GRACE, for the baselines and for the floors on the same test assemblies. Writes
+results.json, results.md, pr_curves.png, p_at_k.png, failures.json and failures.png into the run
+folder, flags collapsed folds, and returns the mean sequence AUC
 over the test sizes (the sweep objective).
 """
 
@@ -13,6 +14,7 @@ import logging
 import math
 import os
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -27,15 +29,18 @@ from omegaconf import MISSING, DictConfig, OmegaConf
 from tqdm.contrib.logging import logging_redirect_tqdm
 
 from grace.domain.sample import LabelledAssembly
+from grace.evaluation.analysis import write_analysis
 from grace.evaluation.baselines import BASELINES
+from grace.evaluation.collapse import fold_health
 from grace.evaluation.evaluate import evaluate_by_size
-from grace.evaluation.feasibility_classifier import classifier_roc_auc
-from grace.evaluation.protocols import Fold, make_folds, protocol_sizes
+from grace.evaluation.feasibility import add_schemes, embedding_schemes
+from grace.evaluation.protocols import Fold, make_folds, protocol_sizes, training_subset
 from grace.evaluation.report import aggregate, write_results
 from grace.planning.sequences import Scorer
 from grace.tasks.logs import log_to_file
 from grace.tasks.progress import ExperimentProgress, FoldReporter
 from grace.tasks.runner import TaskSettings
+from grace.visualisation.analysis import draw_analysis
 from grace.visualisation.plots import p_at_k_bars, pr_curves
 
 log = logging.getLogger(__name__)
@@ -50,6 +55,7 @@ class ExperimentSettings(TaskSettings):
     threshold: float = MISSING
     ks: list[int] = MISSING
     baselines: list[str] = MISSING
+    train_feasible_only: bool = MISSING  # train on feasible assemblies only (training_subset)
     fold_jobs: int = MISSING
 
 
@@ -115,6 +121,7 @@ class FoldResult:
     metrics: dict[str, dict[int, dict]]
     train_s: float
     evaluate_s: float
+    health: dict
 
 
 def run_fold(
@@ -142,8 +149,15 @@ def run_fold(
         *(fold.index, len(train), len(val), len(test)),
     )
     tick = time.perf_counter()
+    feasible_only = cfg.task.train_feasible_only
     fold_dir = Path(cfg.paths.output_dir) / f"fold_{fold.index}"
-    module = instantiate(cfg.task.fit)(cfg, train, val, fold_dir, callbacks=[progress])
+    module = instantiate(cfg.task.fit)(
+        cfg,
+        training_subset(train, feasible_only),
+        training_subset(val, feasible_only),
+        fold_dir,
+        callbacks=[progress],
+    )
     train_s = time.perf_counter() - tick
     progress.stage("evaluating")
     tick = time.perf_counter()
@@ -154,12 +168,14 @@ def run_fold(
     }
     estimator = OmegaConf.select(cfg, "classifier.estimator")
     if estimator is not None:
-        roc = classifier_roc_auc(instantiate(estimator), module, train + val, test)
-        for size, value in roc.items():
-            metrics["GRACE"][size]["feasibility"]["classifier_roc_auc"] = value
+        classifiers = {cfg.classifier.name: instantiate(estimator)}
+        add_schemes(metrics["GRACE"], embedding_schemes(module, train + val, test, classifiers))
+    health = fold_health(metrics, val, fold_dir / "logs")
+    if health["collapsed"]:
+        log.warning("fold %d COLLAPSED: %s", fold.index, "; ".join(health["reasons"]))
     evaluate_s = time.perf_counter() - tick
     progress.done(train_s, evaluate_s)
-    return FoldResult(metrics, train_s, evaluate_s)
+    return FoldResult(metrics, train_s, evaluate_s, {"fold": fold.index, **health})
 
 
 def portable(cfg: DictConfig) -> DictConfig:
@@ -173,15 +189,19 @@ def portable(cfg: DictConfig) -> DictConfig:
 
 
 def _run_folds(
-    cfg: DictConfig, data: list[LabelledAssembly], folds: list[Fold]
-) -> list[FoldResult]:
-    """All folds, `task.fold_jobs` at a time in separate processes (joblib), threads split."""
+    cfg: DictConfig,
+    data: list[LabelledAssembly],
+    folds: list[Fold],
+    fold_fn: Callable[..., Any] | None = None,
+) -> list:
+    """`fold_fn` (default run_fold, same arguments) on all folds, `task.fold_jobs` at a time in
+    separate processes (joblib), threads split."""
     jobs = max(1, min(int(cfg.task.fold_jobs), len(folds)))
     threads = max(1, int(cfg.threads) // jobs)
     cfg = portable(cfg)
     with ExperimentProgress(len(folds)) as progress, logging_redirect_tqdm():
         tasks = (
-            delayed(run_fold)(
+            delayed(fold_fn or run_fold)(
                 cfg,
                 fold,
                 [data[i] for i in fold.train],
@@ -210,6 +230,7 @@ def run(cfg: DictConfig) -> float:
     evaluate_s = [r.evaluate_s for r in fold_results]
     per_size = aggregate(per_fold["GRACE"])
     baselines = {b: {"per_size": aggregate(per_fold[b])} for b in cfg.task.baselines}
+    health = [r.health for r in fold_results]
     results = {
         "protocol": cfg.protocol.name,
         "train_sizes": train_sizes,
@@ -219,6 +240,8 @@ def run(cfg: DictConfig) -> float:
         "baselines": baselines,
         "seconds": time.perf_counter() - start,
         "seconds_by_stage": {"load": load_s, "train": train_s, "evaluate": evaluate_s},
+        "collapsed_folds": [h["fold"] for h in health if h["collapsed"]],
+        "fold_health": health,
         "run": {
             "model": OmegaConf.select(cfg, "model.name"),
             "seed": cfg.seed,
@@ -226,6 +249,7 @@ def run(cfg: DictConfig) -> float:
         },
     }
     write_results(results, out_dir)
+    draw_analysis(write_analysis(per_fold["GRACE"], out_dir), out_dir)
     pr_curves({name: _mean_curves(f) for name, f in per_fold.items()}, out_dir / "pr_curves.png")
     p_at_k_bars(
         {"GRACE": per_size, **{b: baselines[b]["per_size"] for b in baselines}},
@@ -233,5 +257,9 @@ def run(cfg: DictConfig) -> float:
     )
     seq = [entry["seq_auc"]["mean"] for entry in per_size.values() if "seq_auc" in entry]
     objective = float(np.mean(seq)) if seq else math.nan
+    if results["collapsed_folds"]:
+        log.warning(
+            "collapsed folds %s: see fold_health in results.json", results["collapsed_folds"]
+        )
     log.info("mean sequence AUC %.4f, results in %s", objective, out_dir)
     return objective

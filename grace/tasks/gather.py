@@ -1,8 +1,9 @@
 """`python -m grace task=gather task.roots=[multirun/table2]`: combine runs into the paper's tables.
 
 Reads every results.json under the given folders and writes gather.md and gather.json into the run
-folder: Table 2 (intra-sized beside many-to-one, one column per test size), Table 3 (one-to-many:
-a row per training size). Runs that differ in anything but the protocol and its sizes (a model
+folder: Table 2 (intra-sized beside many-to-one, one column per test size; strict figures first,
+as in results.md), Table 3 (one-to-many: a row per training size, with the strict P@1 beside the
+paper's two AUCs). Runs that differ in anything but the protocol and its sizes (a model
 variant, as in the ablation sweep) get their own block of rows, labelled by those overrides;
 baselines appear as variants of their own.
 """
@@ -19,7 +20,7 @@ from omegaconf import MISSING, DictConfig
 
 from grace.data.atomic import write_text_atomic
 from grace.errors import UserError
-from grace.evaluation.report import METRIC_ROWS, cell, lookup, row_cells
+from grace.evaluation.report import METRIC_ROWS, cell, lookup
 from grace.tasks.runner import TaskSettings
 
 log = logging.getLogger(__name__)
@@ -101,30 +102,29 @@ def table2_markdown(table2: dict) -> str:
     lines = [head, "|" + " --- |" * (len(columns) + 2)]
     for name, by_protocol in table2.items():
         for label, path in METRIC_ROWS:
-            cells = row_cells(
-                label, [lookup(by_protocol.get(p, {}).get(s), path) for p, s in columns]
-            )
-            if cells is not None:
-                lines.append(f"| {name} | {label} | " + " | ".join(cells) + " |")
+            cells = [cell(lookup(by_protocol.get(p, {}).get(s), path)) for p, s in columns]
+            lines.append(f"| {name} | {label} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
+TABLE3_COLUMNS = (
+    ("step", ("step_auc",)),
+    ("seq", ("seq_auc",)),
+    ("strict P@1", ("p_at_k_strict", "1")),
+)
+"""Paper Table 3's step and sequence AUC, then the strict P@1 (an empty retrieval counts 0)."""
+
+
 def table3_markdown(table3: dict) -> str:
-    """Paper Table 3: a row per training size, step AUC then sequence AUC per test size."""
+    """Paper Table 3: a row per training size; per test size step AUC, sequence AUC, strict P@1."""
     sizes = _sizes(block for v in table3.values() for block in v.values())
-    head = (
-        "| Variant | Training set | "
-        + " | ".join(f"step A{s}" for s in sizes)
-        + " | "
-        + " | ".join(f"seq A{s}" for s in sizes)
-        + " |"
-    )
-    lines = [head, "|" + " --- |" * (2 * len(sizes) + 2)]
+    columns = [(label, path, s) for label, path in TABLE3_COLUMNS for s in sizes]
+    head = "| Variant | Training set | " + " | ".join(f"{c[0]} A{c[2]}" for c in columns) + " |"
+    lines = [head, "|" + " --- |" * (len(columns) + 2)]
     for name, by_train in table3.items():
         for train in sorted(by_train, key=lambda t: [int(x) for x in t.split("+")]):
             per_size = by_train[train]
-            cells = [cell(lookup(per_size.get(s), ("step_auc",))) for s in sizes]
-            cells += [cell(lookup(per_size.get(s), ("seq_auc",))) for s in sizes]
+            cells = [cell(lookup(per_size.get(s), path)) for _, path, s in columns]
             lines.append(f"| {name} | A{train} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 

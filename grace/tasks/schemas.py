@@ -41,6 +41,7 @@ from grace.model.module import GraceModule
 from grace.simulation.cell_config import register as register_simulator_schemas
 from grace.tasks.bench import BenchSettings
 from grace.tasks.experiment import ExperimentSettings, ProtocolSettings
+from grace.tasks.feasibility import FeasibilitySettings
 from grace.tasks.gather import GatherSettings
 from grace.tasks.generate import GenerateSettings
 from grace.tasks.train import TrainSettings
@@ -211,6 +212,7 @@ def register_schemas() -> None:
         "task/generate": GenerateSettings,
         "task/bench": BenchSettings,
         "task/gather": GatherSettings,
+        "task/feasibility": FeasibilitySettings,
     }
     for path, node in groups.items():
         group, _, name = f"schema/{path}".rpartition("/")

@@ -1,4 +1,4 @@
-"""PNG figures of an experiment run: sequence PR curves and P@k bars.
+"""PNG figures of an experiment run: sequence PR curves and P@k bars (strict and the paper's).
 
 Drawn on bare matplotlib Figures (Agg canvas, no pyplot state) and written atomically.
 """
@@ -14,7 +14,8 @@ from matplotlib.figure import Figure
 from grace.data.atomic import write_bytes_atomic
 
 
-def _save(fig: Figure, path: Path) -> None:
+def save_figure(fig: Figure, path: Path) -> None:
+    """Write `fig` as a PNG to `path` atomically."""
     buffer = io.BytesIO()
     fig.savefig(buffer, format="png", dpi=120, bbox_inches="tight")
     write_bytes_atomic(path, buffer.getvalue())
@@ -36,14 +37,15 @@ def pr_curves(curves: dict[str, dict[str, dict]], path: Path) -> None:
     np.atleast_1d(axes)[0].set_ylabel("IR precision")
     np.atleast_1d(axes)[0].legend(loc="lower left")
     fig.suptitle("Complete-sequence precision–recall (λ sweep)")
-    _save(fig, Path(path))
+    save_figure(fig, Path(path))
 
 
 def p_at_k_bars(policies: dict[str, dict[str, dict]], path: Path) -> None:
     """Grouped bars of P@k (mean ± std over folds) per test size and policy.
 
-    Bars that include assemblies with no complete sequence (which score 1) are hatched and
-    labelled with how many of the counted assemblies that was.
+    The filled bar is the strict P@k (an empty retrieval counts 0); the outline above it reaches
+    the paper's P@k (an empty retrieval counts 1), so the gap is what empty retrievals add. Bars
+    with empty retrievals say how many of the counted assemblies those were.
     """
     sizes = sorted({s for per_size in policies.values() for s in per_size}, key=int)
     ks = ("1", "2", "3")
@@ -53,13 +55,18 @@ def p_at_k_bars(policies: dict[str, dict[str, dict]], path: Path) -> None:
     x = np.arange(len(sizes))
     for ax, k in zip(axes, ks, strict=True):
         for i, (policy, per_size) in enumerate(policies.items()):
-            stats = [per_size.get(s, {}).get("p_at_k", {}).get(k) for s in sizes]
-            means = [st["mean"] if st else np.nan for st in stats]
-            stds = [st["std"] if st else 0.0 for st in stats]
-            bars = ax.bar(x + i * width, means, width, yerr=stds, label=policy, capsize=2)
-            for bar, st in zip(bars, stats, strict=True):
-                if st and st.get("empty"):  # scored 1 by the empty-retrieval rule: say so
-                    bar.set_hatch("//")
+            paper = [per_size.get(s, {}).get("p_at_k", {}).get(k) for s in sizes]
+            strict = [per_size.get(s, {}).get("p_at_k_strict", {}).get(k) for s in sizes]
+            means = [st["mean"] if st else np.nan for st in strict]
+            stds = [st["std"] if st else 0.0 for st in strict]
+            colour = f"C{i}"
+            bars = ax.bar(
+                x + i * width, means, width, yerr=stds, label=policy, capsize=2, color=colour
+            )
+            outline = [st["mean"] if st else np.nan for st in paper]
+            ax.bar(x + i * width, outline, width, fill=False, edgecolor=colour, linestyle="--")
+            for bar, st in zip(bars, paper, strict=True):
+                if st and st.get("empty"):
                     ax.annotate(
                         f"{st['empty']}/{st['assemblies']}\nempty",
                         (bar.get_x() + bar.get_width() / 2, 0.02),
@@ -68,5 +75,6 @@ def p_at_k_bars(policies: dict[str, dict[str, dict]], path: Path) -> None:
                     )
         ax.set(title=f"P@{k} (λ = 0.5)", xticks=x + width * (len(policies) - 1) / 2, ylim=(0, 1.05))
         ax.set_xticklabels([f"A{s}" for s in sizes])
+    axes[0].set_ylabel("strict P@k (dashed: paper's, empty = 1)")
     fig.legend(*axes[0].get_legend_handles_labels(), loc="outside right upper")
-    _save(fig, Path(path))
+    save_figure(fig, Path(path))

@@ -4,7 +4,7 @@ import pytest
 from grace.domain.assembly import Assembly, Part, PartType, planar_pose
 from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
-from grace.evaluation.baselines import random_scorer
+from grace.evaluation.baselines import constant_scorer, never_scorer, random_scorer
 from grace.evaluation.evaluate import evaluate_assembly, evaluate_by_size
 
 
@@ -40,7 +40,7 @@ def test_oracle_is_perfect():
     assert result.retrieved[1:].tolist() == [2] * 99  # λ > 0: exactly the truth
     assert result.retrieved[0] == 6 and result.hits[0] == 2  # λ = 0: every order
     assert result.topk_relevant == [True, True]
-    assert result.feasibility_score == 1.0
+    assert result.feasibility_scores == {"sequences": 2, "best_sequence": 1.0, "bottleneck": 1.0}
     assert result.passes == 7
     summary = evaluate_by_size(oracle(CHAIN), [CHAIN, CHAIN])[3]
     assert summary["step_auc"] == summary["seq_auc"] == pytest.approx(1.0)
@@ -71,3 +71,74 @@ def test_random_baseline_is_seeded_and_never_replaces_parts():
     assert np.array_equal(a, random_scorer(3)(CHAIN.assembly, states))
     assert a[1, 0] == a[1, 2] == 0.0 and a[2, 0] == a[2, 1] == 0.0
     assert ((a > 0) == ((states[:, None] >> np.arange(3) & 1) == 0)).all()
+
+
+# CHAIN's on-path states and labels: {} → 0, 1; {0} → 1; {1} → 0; {0, 1} → 2: 5 of 12 positive.
+
+
+def test_never_retrieving_policy_sits_on_the_floors():
+    summary = evaluate_by_size(never_scorer(0), [CHAIN])[3]
+    assert summary["seq_auc"] == pytest.approx(0.5)  # recall 0, precision 1 at every λ
+    assert summary["p_at_k"]["1"]["value"] == 1.0  # the paper's empty-retrieval rule
+    assert summary["p_at_k_strict"]["1"]["value"] == 0.0
+    assert summary["p_at_k_strict"]["1"]["empty"] == 1 and summary["no_sequence"] == 1
+    # all scores tie: one PR point (recall 1, precision 5/12) closed at (0, 1)
+    assert summary["step_auc"] == pytest.approx((1 + 5 / 12) / 2)
+    # scoring the step-AUC states must not leak the truth into its feasibility scores
+    blocked = _sample(3, lambda s, p: s.bit_count() < 2)  # no third part ever fits: infeasible
+    schemes = evaluate_by_size(never_scorer(0), [CHAIN, blocked])[3]["feasibility"]["schemes"]
+    assert {name: s["roc_auc"] for name, s in schemes.items()} == {
+        "sequences": 0.5,
+        "best_sequence": 0.5,
+        "bottleneck": 0.5,
+    }
+
+
+def test_constant_policy_retrieves_everything_at_or_below_one_half():
+    summary = evaluate_by_size(constant_scorer(0), [CHAIN])[3]
+    # λ ≤ 0.5 retrieves all 6 orders (precision 1/3, recall 1), above nothing: (1 + 1/3) / 2
+    assert summary["seq_auc"] == pytest.approx(2 / 3)
+    # ties broken lexicographically: (0, 1, 2) then (0, 2, 1)
+    assert summary["p_at_k_strict"]["1"]["value"] == 1.0
+    assert summary["p_at_k_strict"]["2"]["value"] == 0.5
+    # placed parts 0, unplaced 0.5: precision 5/8 at full recall, closed at (0, 1)
+    assert summary["step_auc"] == pytest.approx((1 + 5 / 8) / 2)
+
+
+# One order (1, 0, 2); placing 0 first is feasible but leads to the dead end {0, 2}.
+DEAD_END_RULES = {0b000: (0, 1), 0b001: (2,), 0b010: (0,), 0b011: (2,)}
+DEAD_END = _sample(3, lambda s, p: p in DEAD_END_RULES.get(s, ()))
+DEAD_END_SCORES = {
+    0b000: [0.2, 0.9, 0.1],
+    0b010: [0.9, 0.0, 0.1],
+    0b011: [0.0, 0.0, 0.9],
+    0b001: [0.0, 0.2, 0.7],  # off-path: part 2 is feasible here (label 1)
+    0b101: [0.0, 0.9, 0.0],  # off-path dead end: part 1 is infeasible (label 0) but scores 0.9
+}
+
+
+def test_step_auc_off_the_true_orders_on_a_hand_case():
+    def scorer(assembly, states):
+        return np.array([DEAD_END_SCORES.get(int(s), [0.0] * 3) for s in states])
+
+    summary = evaluate_by_size(scorer, [DEAD_END])[3]
+    assert summary["step_auc"] == pytest.approx(1.0)  # perfect on the true order
+    assert summary["offpath_states"] == 2
+    # off-path scores .9 (neg), .7 (pos), .2 and 0s (neg): the PR curve runs (1, 1/2) → (0, 0)
+    # → (0, 1), area 1/4
+    assert summary["step_auc_offpath"] == pytest.approx(0.25)
+
+
+def test_failures_of_feasible_and_infeasible_assemblies_are_kept_apart():
+    blocked = _sample(3, lambda s, p: s.bit_count() < 2)  # infeasible
+    failures = evaluate_by_size(constant_scorer(0), [CHAIN, blocked])[3]["failures"]
+    # CHAIN: all 6 orders retrieved at λ = 0.5; (2, 0, 1) and (2, 1, 0) go wrong at step 1,
+    # (0, 2, 1) and (1, 2, 0) at step 2 (from two different states)
+    feasible = failures["feasible"]["by_step"]
+    assert {k: (v["sequences"], v["false_steps"]) for k, v in feasible.items()} == {
+        "1": (2, 1),
+        "2": (2, 2),
+    }
+    # every sequence of the infeasible one is wrong from its first step
+    infeasible = failures["infeasible"]["by_step"]
+    assert {k: (v["sequences"], v["false_steps"]) for k, v in infeasible.items()} == {"1": (6, 3)}

@@ -9,6 +9,7 @@ from grace.evaluation.metrics import (
     precision_at_k,
     sequence_auc,
     sequence_pr_curve,
+    tpr_at_fpr,
 )
 
 
@@ -62,6 +63,18 @@ def test_precision_at_k_counts_only_assemblies_with_k_orders_and_reports_empty()
     assert np.isnan(precision_at_k(flags, relevant, 4)["value"])
 
 
+def test_strict_precision_at_k_counts_an_empty_retrieval_as_a_miss():
+    flags = [[True, False, True], [], [False], [True, True]]
+    relevant = [3, 2, 1, 2]
+    strict = precision_at_k(flags, relevant, 1, empty_value=0.0)
+    assert strict == {"value": pytest.approx((1 + 0 + 0 + 1) / 4), "assemblies": 4, "empty": 1}
+    assert precision_at_k(flags, relevant, 2, empty_value=0.0)["value"] == pytest.approx(0.5)
+    # a policy that never retrieves: the paper's rule gives 1, the strict one 0
+    never = [[], [], []]
+    assert precision_at_k(never, [1, 2, 3], 1)["value"] == 1.0
+    assert precision_at_k(never, [1, 2, 3], 1, empty_value=0.0)["value"] == 0.0
+
+
 def test_feasibility_confusion_and_roc():
     feasible = np.array([True, True, False, False, True])
     found = np.array([True, False, False, True, True])
@@ -70,3 +83,16 @@ def test_feasibility_confusion_and_roc():
     assert roc == pytest.approx(5 / 6)  # 6 positive-negative pairs, only (0.2, 0.6) misordered
     assert fpr[-1] == tpr[-1] == 1.0
     assert np.isnan(feasibility_roc(np.ones(3, bool), np.ones(3))[2])
+
+
+def test_tpr_at_five_percent_fpr_and_roc_auc_on_a_hand_case():
+    # 4 feasible, 20 infeasible. Descending: .9 P, .8 P, .7 N, .6 P, .5 N, .4 P, then 18 N < .4.
+    # FPR ≤ 1/20 admits thresholds down to .6 (only .7 is a false positive): TPR 3/4. AUC: the
+    # positives outrank 20 + 20 + 19 + 18 of the 20 negatives each: 77 / 80.
+    feasible = np.array([True] * 4 + [False] * 20)
+    scores = np.array([0.9, 0.8, 0.6, 0.4, 0.7, 0.5, *np.linspace(0.0, 0.3, 18)])
+    fpr, tpr, auc = feasibility_roc(feasible, scores)
+    assert auc == pytest.approx(77 / 80)
+    assert tpr_at_fpr(fpr, tpr, 0.05) == 0.75
+    assert tpr_at_fpr(fpr, tpr, 0.0) == 0.5
+    assert tpr_at_fpr(fpr, tpr, 0.1) == 1.0

@@ -1,9 +1,10 @@
 import numpy as np
 import pytest
+from hydra.utils import instantiate
 from omegaconf import OmegaConf
 
 from grace import CONF_DIR
-from grace.evaluation.protocols import make_folds, protocol_sizes
+from grace.evaluation.protocols import make_folds, protocol_sizes, training_subset
 
 SIZES = [3] * 40 + [4] * 30 + [5] * 50 + [6] * 20 + [7] * 9
 
@@ -59,3 +60,13 @@ def test_bad_protocol_settings_fail_clearly():
         protocol_sizes("many_to_one", SIZES, None, [9], [9])
     with pytest.raises(ValueError, match="at least 2 folds"):
         make_folds(SIZES, [3], [3], 1, 0.15, 0)
+
+
+def test_feasible_only_training_subset(fake_simulator):
+    simulator = instantiate(fake_simulator)
+    rng = np.random.default_rng(0)
+    samples = [simulator.sample(5, rng) for _ in range(30)]
+    feasible = training_subset(samples, feasible_only=True)
+    assert feasible == [s for s in samples if s.truth.feasible]
+    assert 0 < len(feasible) < len(samples)
+    assert training_subset(samples, feasible_only=False) == samples

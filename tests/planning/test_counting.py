@@ -3,7 +3,7 @@ import pytest
 from planning_fakes import TableScorer, line_assembly
 
 from grace.domain.orders import GroundTruth
-from grace.planning.counting import bottleneck, retrieval_counts
+from grace.planning.counting import best_probability, bottleneck, retrieval_counts
 from grace.planning.sequences import plan, score_states
 
 
@@ -36,3 +36,11 @@ def test_bottleneck_is_the_last_threshold_with_a_sequence():
     b = bottleneck(scored)
     assert len(plan(scored, b)) > 0
     assert len(plan(scored, np.nextafter(b, 2.0))) == 0
+
+
+@pytest.mark.parametrize("n,seed", [(3, 0), (5, 4), (6, 5)])
+def test_best_probability_is_the_most_probable_listed_sequence(n, seed):
+    scored = score_states(TableScorer(n, seed, levels=1000), line_assembly(n))
+    listed = plan(scored, 0.0)
+    assert best_probability(scored) == pytest.approx(listed.probabilities.max(), rel=1e-12)
+    assert bottleneck(scored) == pytest.approx(listed.step_scores.min(axis=1).max())

@@ -1,0 +1,26 @@
+"""The side files of a run beside results.json: feasibility.json and failures.json.
+
+Both read GRACE's per-fold summaries (grace/evaluation/evaluate.py): the feasibility schemes with
+their ROC points, and the first false steps of wrongly retrieved sequences.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from pathlib import Path
+
+from grace.data.atomic import write_text_atomic
+from grace.evaluation.failures import failures_report
+from grace.evaluation.feasibility import feasibility_report
+
+
+def write_analysis(per_fold: Sequence[dict[int, dict]], out_dir: Path) -> dict:
+    """Write feasibility.json and failures.json into `out_dir`; return both reports by name."""
+    reports = {
+        "feasibility": feasibility_report(per_fold),
+        "failures": failures_report(per_fold),
+    }
+    for name, report in reports.items():
+        write_text_atomic(Path(out_dir) / f"{name}.json", json.dumps(report, indent=2) + "\n")
+    return reports
