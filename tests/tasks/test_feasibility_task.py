@@ -49,10 +49,9 @@ def test_feasibility_task_end_to_end_on_simulator_data(cfg_factory):
     cfg = cfg_factory(
         "task=feasibility",
         "scale=smoke",
-        "scale.sizes.3=40",
-        "scale.sizes.4=40",
-        "protocol.train_sizes=[3,4]",
-        "protocol.test_sizes=[3,4]",
+        "scale.sizes={5: 48, 6: 48}",  # ~10 % infeasible: both classes in every test fold
+        "protocol.train_sizes=[5,6]",
+        "protocol.test_sizes=[5,6]",
         "protocol.folds=2",
         "trainer.max_epochs=2",
         "trainer.enable_progress_bar=false",
@@ -60,7 +59,7 @@ def test_feasibility_task_end_to_end_on_simulator_data(cfg_factory):
     )
     run(cfg)
     report = json.loads((Path(cfg.paths.output_dir) / "feasibility.json").read_text())
-    schemes = set(report["per_size"]["4"])
+    schemes = set(report["per_size"]["6"])
     assert {
         "best_sequence",
         "classifier: svm_linear",

@@ -35,7 +35,11 @@ def sweep(tmp_path: Path, name: str, launcher: str, *overrides: str) -> list[dic
         capture_output=True,
         timeout=600,
     )
-    jobs = sorted(out.glob("*/*.json"), key=lambda p: int(p.parent.name))
+    # the one result file of a job: metrics.json (task=train) or results.json (experiment)
+    jobs = sorted(
+        (p for p in out.glob("*/*.json") if p.name in ("metrics.json", "results.json")),
+        key=lambda p: int(p.parent.name),
+    )
     return [json.loads(p.read_text()) for p in jobs]
 
 
