@@ -118,26 +118,3 @@ def simulator_comparison(
             ),
         }
     return out
-
-
-def main() -> None:
-    """`python -m grace.data.stats [overrides…]`: the three simulators on the same data set
-    (generated, or read from the cache, like `task=generate`), printed as JSON."""
-    import json
-    import sys
-
-    from hydra import compose, initialize_config_dir
-
-    from grace import CONF_DIR
-    from grace.data.store import load_generated
-
-    labelled = {}
-    for name in SIMULATORS:
-        with initialize_config_dir(config_dir=str(CONF_DIR), version_base=None):
-            cfg = compose("config", overrides=[*sys.argv[1:], f"simulator={name}"])
-        labelled[name] = load_generated(cfg)
-    print(json.dumps(simulator_comparison(labelled), indent=2))
-
-
-if __name__ == "__main__":
-    main()

@@ -20,6 +20,7 @@ import numpy as np
 from grace import CONF_DIR
 from grace.domain.assembly import Assembly, Part, PartType, planar_pose
 from grace.domain.motion import Motion
+from grace.simulation.cell_config import register
 from grace.simulation.robot_cell import RobotCell
 from grace.simulation.simulator import Simulator
 
@@ -78,8 +79,9 @@ def main() -> None:
     sizes = [int(s) for s in (sys.argv[1] if len(sys.argv) > 1 else "7").split(",")]
     count = int(sys.argv[2]) if len(sys.argv) > 2 else 20
     name = sys.argv[3] if len(sys.argv) > 3 else "dual_arm"
+    register()  # the simulator group alone: its schemas live in this layer
     with initialize_config_dir(config_dir=str(CONF_DIR), version_base=None):
-        cfg = compose(config_name="config", overrides=[f"simulator={name}"])
+        cfg = compose(config_name=f"simulator/{name}")
     sim = instantiate(cfg.simulator)
     report: dict[str, Any] = {"simulator": name}
     report["sizes"] = [size_benchmark(sim, size, count) for size in sizes]

@@ -1,0 +1,26 @@
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_the_comparison_labels_the_same_frames_with_every_simulator(tmp_path):
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "grace.tasks.compare_simulators",
+            "dataset.sizes={4: 3}",
+            f"paths.data_dir={tmp_path}",
+        ],
+        cwd=ROOT,
+        check=True,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    report = json.loads(out.stdout)
+    assert set(report) == {"4"} and report["4"]["assemblies"] == 3
+    assert set(report["4"]["infeasible_fraction"]) == {"dual_arm", "single_arm", "boxes"}
