@@ -15,7 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from grace.domain.assembly import Assembly, full_mask
-from grace.planning.sequences import ScoredStates, Scorer
+from grace.planning.counting import bottleneck
+from grace.planning.sequences import ScoredStates, Scorer, score_states
 
 StateScores = Callable[[int], np.ndarray]
 """`scores(state)`: the N part scores of one state bitmask."""
@@ -68,3 +69,36 @@ def top_k(scores: StateScores, n_parts: int, k: int, threshold: float) -> list[R
                 heap, (neg_prob * step, (*prefix, part), state | 1 << part, (*steps, step))
             )
     return out
+
+
+FULL_TABLE_MAX_PARTS = 14
+"""Up to this size every state is scored (2^N − 1 ≤ 16,383, one batched call per level) and the
+feasibility score is exact; above it only the states best-first search visits are scored."""
+
+
+@dataclass(frozen=True)
+class Ranking:
+    """The best complete sequences of one assembly under a policy.
+
+    `feasibility` is the bottleneck score (the largest λ at which Algorithm 1 still finds a
+    complete sequence, docs/metrics.md), None above `FULL_TABLE_MAX_PARTS` parts; `scores`
+    gives any state's part scores (from the table, or scored on demand).
+    """
+
+    ranked: list[Ranked]
+    feasibility: float | None
+    scores: StateScores
+    passes: int
+
+
+def rank_sequences(scorer: Scorer, assembly: Assembly, k: int, threshold: float = 0.0) -> Ranking:
+    """The `k` most probable complete sequences with every step ≥ `threshold`, best first."""
+    n = assembly.n_parts
+    if n <= FULL_TABLE_MAX_PARTS:
+        scored = score_states(scorer, assembly, threshold=0.0)
+        scores = table_scores(scored)
+        ranked = top_k(scores, n, k, threshold)
+        return Ranking(ranked, bottleneck(scored), scores, scored.passes)
+    lazy = lazy_scores(scorer, assembly)
+    ranked = top_k(lazy, n, k, threshold)
+    return Ranking(ranked, None, lazy, len(lazy.cache))  # type: ignore[attr-defined]
