@@ -117,12 +117,11 @@ def _step_markdown(record: SequenceRecord, step: int) -> str:
     return "\n".join(lines)
 
 
-def record_assembly(
-    rec: rr.RecordingStream, record: SequenceRecord, root: str, arm_radii: Sequence[float]
-) -> None:
+def record_assembly(rec: rr.RecordingStream, record: SequenceRecord, root: str) -> None:
     """Log one assembly under `root` (static tables, then the best sequence step by step)."""
     rec.log(root, rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
-    rec.log(f"{root}/sequences", rr.TextDocument(_sequences_markdown(record), media_type="text/markdown"), static=True)  # fmt: skip
+    table = rr.TextDocument(_sequences_markdown(record), media_type="text/markdown")
+    rec.log(f"{root}/sequences", table, static=True)
     failures_at = {}
     for f in record.failures:
         failures_at.setdefault(f.step, []).append(f)
@@ -136,7 +135,7 @@ def record_assembly(
         else:
             rec.log(f"{root}/cell/clamps", rr.Clear(recursive=False))
         if view.pose is not None:
-            _log_arms(rec, root, view.pose, arm_radii)
+            _log_arms(rec, root, view.pose, record.arm_radii)
             rec.log(f"{root}/cell/tool", _boxes(view.pose.tool, _TOOL))
         else:
             rec.log(f"{root}/cell/tool", rr.Clear(recursive=False))
@@ -160,7 +159,7 @@ def record_assembly(
         elif top is not None and step == top.step + 1:
             rec.log(f"{root}/cell/failure", rr.Clear(recursive=False))
         for f in failures_at.get(step, []):
-            text = f"rank {f.rank}, step {f.step}: part {f.part} is outside the ground truth; {f.reason}"
+            text = f"rank {f.rank}, step {f.step}: part {f.part} {f.where}; {f.reason}"
             rec.log(f"{root}/failures", rr.TextLog(text, level="ERROR"))
 
 
@@ -181,9 +180,7 @@ def _blueprint(roots: list[str]) -> rrb.Blueprint:
     return rrb.Blueprint(rrb.Tabs(*tabs), collapse_panels=False)
 
 
-def write_recording(
-    records: Sequence[SequenceRecord], path: str | Path, arm_radii: Sequence[float], name: str
-) -> Path:
+def write_recording(records: Sequence[SequenceRecord], path: str | Path, name: str) -> Path:
     """Write `records` into the `.rrd` at `path` (written beside it, then renamed into place)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -194,7 +191,7 @@ def write_recording(
         rec.set_log_time_enabled(False)  # the step timeline only: same input, same file
         roots = [entity_root(r, i) for i, r in enumerate(records)]
         for record, root in zip(records, roots, strict=True):
-            record_assembly(rec, record, root, arm_radii)
+            record_assembly(rec, record, root)
         rec.send_blueprint(_blueprint(roots))
         rec.flush()
         rec.disconnect()

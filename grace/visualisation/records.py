@@ -45,6 +45,8 @@ class Failure:
     feasible completion follows) or disagrees with the data set's ground truth."""
     blocking: tuple[int, ...]
     reason: str
+    where: str
+    """'leaves the ground truth' or 'is refused by the simulator' (no ground truth known)."""
 
 
 @dataclass(frozen=True)
@@ -73,6 +75,8 @@ class SequenceRecord:
     steps: list[StepView]
     clamps: dict[int, np.ndarray] = field(default_factory=dict)
     """Per part, its clamp's world boxes (k×2×3 mm; drawn once the part is placed)."""
+    arm_radii: tuple[float, ...] = ()
+    """Capsule radii (mm) of the arm links: column, upper arm, forearm, wrist."""
 
 
 def _label(truth: GroundTruth | None, state: int) -> int | None:
@@ -96,13 +100,15 @@ def first_failure(
         outside = not (label >> part & 1) if label is not None else False
         verdict = checker.verdict(placed, part)
         if outside or (truth is None and not verdict.feasible):
+            where = "leaves the ground truth" if outside else "is refused by the simulator"
             if verdict.feasible:
                 reason = (
                     "dead end: the simulator places it, but no feasible order completes from here"
                 )
-                return Failure(rank, step, part, placed, None, (), reason)
+                return Failure(rank, step, part, placed, None, (), reason, where)
             hits = tuple(sorted({b.part for b in blockers(verdict) if b.part is not None}))
-            return Failure(rank, step, part, placed, verdict.rule, hits, describe(verdict, names))
+            reason = describe(verdict, names)
+            return Failure(rank, step, part, placed, verdict.rule, hits, reason, where)
         placed |= 1 << part
     return None
 
@@ -151,6 +157,7 @@ def sequence_record(
         failures=failures,
         steps=steps,
         clamps=_clamps(simulator, assembly),
+        arm_radii=tuple(float(r) for r in simulator.cell.config.arm.link_radii),
     )
 
 
