@@ -141,6 +141,7 @@ def plan_json(record: SequenceRecord, sources: dict[str, Any]) -> dict[str, Any]
 def run(cfg: DictConfig) -> float | None:
     """Plan `task.assembly` with the model of `task.ckpt`; return its feasibility score."""
     out_dir = Path(cfg.paths.output_dir)
+    begin = time.perf_counter()
     for key, what in (("ckpt", "<run folder or .ckpt>"), ("assembly", "<raw folder or .spec>")):
         if not cfg.task[key]:
             raise UserError(f"task=plan needs {key}=; fix: add {key}={what}")
@@ -149,6 +150,7 @@ def run(cfg: DictConfig) -> float | None:
     module, kept = load_model(ckpt)
     simulator = instantiate(kept.simulator)
     start = time.perf_counter()
+    load_seconds = start - begin
     record = sequence_record(
         "plan",
         assembly,
@@ -160,7 +162,12 @@ def run(cfg: DictConfig) -> float | None:
         float(cfg.task.threshold),
     )
     seconds = time.perf_counter() - start
-    sources = {"checkpoint": str(ckpt), "assembly": str(cfg.task.assembly), "seconds": seconds}
+    sources = {
+        "checkpoint": str(ckpt),
+        "assembly": str(cfg.task.assembly),
+        "seconds": seconds,  # scoring, top-k, simulator checks and poses (model loaded)
+        "load_seconds": load_seconds,  # checkpoint, config, assembly, simulator
+    }
     result = plan_json(record, {**sources, "k": int(cfg.task.k), "threshold": cfg.task.threshold})
     write_text_atomic(out_dir / "plan.json", json.dumps(result, indent=2) + "\n")
     write_recording([record], out_dir / "plan.rrd", out_dir.name)
@@ -175,5 +182,8 @@ def run(cfg: DictConfig) -> float | None:
         print(f"{entry['rank']:3d}. {order}  p={entry['probability']:.4g}  simulator: {verdict}")
     if not result["sequences"]:
         print(f"no complete sequence has every step scoring ≥ {cfg.task.threshold}")
-    print(f"planned and checked in {seconds:.2f} s; plan.json and plan.rrd in {out_dir}")
+    print(
+        f"planned and checked in {seconds:.2f} s (loading {load_seconds:.2f} s); "
+        f"plan.json and plan.rrd in {out_dir}"
+    )
     return record.feasibility

@@ -102,9 +102,7 @@ def first_failure(
         if outside or (truth is None and not verdict.feasible):
             where = "leaves the ground truth" if outside else "is refused by the simulator"
             if verdict.feasible:
-                reason = (
-                    "dead end: the simulator places it, but no feasible order completes from here"
-                )
+                reason = "the simulator places it, but no ground-truth order goes on from here"
                 return Failure(rank, step, part, placed, None, (), reason, where)
             hits = tuple(sorted({b.part for b in blockers(verdict) if b.part is not None}))
             reason = describe(verdict, names)
