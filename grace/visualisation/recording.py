@@ -64,19 +64,20 @@ def _parts(record: SequenceRecord, placed: int, current: int | None) -> rr.Boxes
     return rr.Boxes3D(mins=lo, sizes=hi - lo, colors=colours, labels=labels, show_labels=True)
 
 
-def _log_arms(rec: rr.RecordingStream, root: str, pose: CellPose, radii: Sequence[float]) -> None:
-    """Each arm as four capsules (column, upper arm, forearm, wrist) from its MuJoCo bodies."""
-    arms = sorted({name.split("_")[0] for name in pose.bodies})
-    for arm in arms:
-        links = [pose.bodies[f"{arm}_l{k}"] for k in range(1, 5) if f"{arm}_l{k}" in pose.bodies]
-        starts = [pos for pos, _ in links]
-        ends = [*starts[1:], None]
-        strips = []
-        for (pos, rot), end in zip(links, ends, strict=True):
-            strips.append([pos, end if end is not None else pos + rot[:, 2] * 2 * radii[-1]])
+def _log_arms(
+    rec: rr.RecordingStream, root: str, pose: CellPose, links: Sequence[tuple[float, float]]
+) -> None:
+    """Each arm's links as capsules (MuJoCo bodies `arm<a>_l1…l4`, each link along its body's z
+    axis, as in the cell's MJCF)."""
+    for arm in sorted({name.split("_")[0] for name in pose.bodies}):
+        segments, radii = [], []
+        for k, (length, radius) in enumerate(links, 1):
+            pos, rot = pose.bodies[f"{arm}_l{k}"]
+            segments.append([pos, pos + rot[:, 2] * length])
+            radii.append(radius)
         rec.log(
             f"{root}/cell/{arm}",
-            rr.LineStrips3D(strips, radii=list(radii[: len(strips)]), colors=[_ARM] * len(strips)),
+            rr.LineStrips3D(segments, radii=radii, colors=[_ARM] * len(segments)),
         )
 
 
@@ -111,9 +112,10 @@ def _step_markdown(record: SequenceRecord, step: int) -> str:
     lines.append(f"placed before: {mask_to_parts(view.placed) or 'nothing'}")
     for rank, seq in enumerate(record.ranked, 1):
         lines.append(f"- rank {rank} places part {seq.sequence[step]}")
-    truth = [o[step] for o in record.truth_orders if o[:step] == record.ranked[0].sequence[:step]]
-    if record.n_truth_orders is not None:
-        lines.append(f"ground-truth orders through this state place: {sorted(set(truth))}")
+    if view.truth_next is not None:
+        lines.append(
+            f"the ground truth lets go next: {mask_to_parts(view.truth_next) or 'nothing'}"
+        )
     return "\n".join(lines)
 
 
@@ -135,7 +137,7 @@ def record_assembly(rec: rr.RecordingStream, record: SequenceRecord, root: str) 
         else:
             rec.log(f"{root}/cell/clamps", rr.Clear(recursive=False))
         if view.pose is not None:
-            _log_arms(rec, root, view.pose, record.arm_radii)
+            _log_arms(rec, root, view.pose, record.arm_links)
             rec.log(f"{root}/cell/tool", _boxes(view.pose.tool, _TOOL))
         else:
             rec.log(f"{root}/cell/tool", rr.Clear(recursive=False))

@@ -58,6 +58,8 @@ class StepView:
     part: int
     scores: np.ndarray
     pose: CellPose | None
+    truth_next: int | None
+    """Bitmask of the parts the ground truth lets go next from `placed` (None: no truth)."""
 
 
 @dataclass
@@ -75,8 +77,8 @@ class SequenceRecord:
     steps: list[StepView]
     clamps: dict[int, np.ndarray] = field(default_factory=dict)
     """Per part, its clamp's world boxes (k×2×3 mm; drawn once the part is placed)."""
-    arm_radii: tuple[float, ...] = ()
-    """Capsule radii (mm) of the arm links: column, upper arm, forearm, wrist."""
+    arm_links: tuple[tuple[float, float], ...] = ()
+    """(length, radius) in mm of each arm link's capsule: column, upper arm, forearm, wrist."""
 
 
 def _label(truth: GroundTruth | None, state: int) -> int | None:
@@ -142,7 +144,8 @@ def sequence_record(
     steps, placed = [], 0
     for part in ranking.ranked[0].sequence if ranking.ranked else ():
         pose = checker.pose(placed, part)
-        steps.append(StepView(placed, part, np.asarray(ranking.scores(placed)), pose))
+        scores = np.asarray(ranking.scores(placed))
+        steps.append(StepView(placed, part, scores, pose, _label(truth, placed)))
         placed |= 1 << part
     return SequenceRecord(
         group=group,
@@ -155,7 +158,14 @@ def sequence_record(
         failures=failures,
         steps=steps,
         clamps=_clamps(simulator, assembly),
-        arm_radii=tuple(float(r) for r in simulator.cell.config.arm.link_radii),
+        arm_links=tuple(
+            (float(length), float(radius))
+            for length, radius in zip(
+                simulator.cell.config.arm.link_lengths,
+                simulator.cell.config.arm.link_radii,
+                strict=True,
+            )
+        ),
     )
 
 
