@@ -458,6 +458,25 @@ def import_raw(folder: str | Path) -> LabelledAssembly:
     return LabelledAssembly(assembly, truth, {})
 
 
+def read_assembly(path: str | Path) -> tuple[Assembly, GroundTruth | None]:
+    """An assembly to plan: a raw folder (with `solutions.csv` also its ground truth, with
+    `distances.csv` its relations) or a lone `assembly.spec` (relations from the poses)."""
+    path = Path(path)
+    spec = path / SPEC_FILE if path.is_dir() else path
+    if not spec.is_file():
+        raise _error(
+            spec, None, "no such file", f"pass a raw assembly folder or its {SPEC_FILE} file"
+        )
+    folder = spec.parent
+    if (folder / SOLUTIONS_FILE).is_file() and (folder / DISTANCES_FILE).is_file():
+        sample = import_raw(folder)
+        return sample.assembly, sample.truth
+    assembly = Assembly(tuple(_parse_spec(spec)), name=folder.name)
+    if (folder / DISTANCES_FILE).is_file():
+        assembly.relations = _parse_distances(folder / DISTANCES_FILE, assembly)
+    return assembly, None
+
+
 def import_raw_folders(
     folders: Sequence[Path], root: str | Path, limit: int = MAX_REPORTED_FOLDERS
 ) -> list[LabelledAssembly]:

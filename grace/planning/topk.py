@@ -15,7 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from grace.domain.assembly import Assembly, full_mask
-from grace.planning.sequences import ScoredStates, Scorer
+from grace.planning.counting import bottleneck, state_levels
+from grace.planning.sequences import ScoredStates, Scorer, score_states
 
 StateScores = Callable[[int], np.ndarray]
 """`scores(state)`: the N part scores of one state bitmask."""
@@ -49,22 +50,94 @@ def table_scores(scored: ScoredStates) -> StateScores:
     return lambda state: scored.table[state]
 
 
-def top_k(scores: StateScores, n_parts: int, k: int, threshold: float) -> list[Ranked]:
-    """The k most probable complete sequences with every step score ≥ `threshold`."""
+def completion_bounds(scored: ScoredStates, threshold: float) -> np.ndarray:
+    """Per state bitmask, the largest product of step scores over its completions whose every
+    step scores ≥ `threshold` (0 where there is none; 1 for the full state).
+
+    The exact probability still to come: with it best-first search (A*) walks straight to the
+    next best complete sequence. Without it, near-uniform scores (an uncertain model, a large
+    assembly) make plain best-first search expand almost every prefix before the first
+    complete one, N! of them at worst.
+    """
+    n = scored.n_parts
+    best = np.zeros(full_mask(n) + 1)
+    best[full_mask(n)] = 1.0
+    for level in reversed(state_levels(n)):
+        for part in range(n):
+            states = level[(level >> part & 1) == 0]
+            step = scored.table[states, part]
+            step = np.where(step >= threshold, step, 0.0)  # NaN (not scored) never passes
+            best[states] = np.maximum(best[states], step * best[states | np.int64(1) << part])
+    return best
+
+
+def top_k(
+    scores: StateScores,
+    n_parts: int,
+    k: int,
+    threshold: float,
+    bounds: np.ndarray | None = None,
+) -> list[Ranked]:
+    """The k most probable complete sequences with every step score ≥ `threshold`.
+
+    `bounds` (completion_bounds of the same scores and threshold) turns the search into A*:
+    the same sequences, each found after O(N²) expansions; ties of equal probability may then
+    come out in another order than the lexicographic one.
+    """
     full = full_mask(n_parts)
-    heap: list[tuple[float, tuple[int, ...], int, tuple[float, ...]]] = [(-1.0, (), 0, ())]
+    start = 1.0 if bounds is None else float(bounds[0])
+    heap: list[tuple[float, tuple[int, ...], int, tuple[float, ...], float]] = [
+        (-start, (), 0, (), 1.0)
+    ]
     out: list[Ranked] = []
     while heap and len(out) < k:
-        neg_prob, prefix, state, steps = heapq.heappop(heap)
+        _, prefix, state, steps, prob = heapq.heappop(heap)
         if state == full:
-            out.append(Ranked(prefix, -neg_prob, steps))
+            out.append(Ranked(prefix, prob, steps))
             continue
         row = scores(state)
         for part in range(n_parts):
             if state >> part & 1 or not row[part] >= threshold:
                 continue
             step = float(row[part])
+            child = state | 1 << part
+            rest = 1.0 if bounds is None else float(bounds[child])
+            if bounds is not None and rest <= 0.0:
+                continue  # no completion passes λ from here
             heapq.heappush(
-                heap, (neg_prob * step, (*prefix, part), state | 1 << part, (*steps, step))
+                heap, (-(prob * step) * rest, (*prefix, part), child, (*steps, step), prob * step)
             )
     return out
+
+
+FULL_TABLE_MAX_PARTS = 14
+"""Up to this size every state is scored (2^N − 1 ≤ 16,383, one batched call per level) and the
+feasibility score is exact; above it only the states best-first search visits are scored."""
+
+
+@dataclass(frozen=True)
+class Ranking:
+    """The best complete sequences of one assembly under a policy.
+
+    `feasibility` is the bottleneck score (the largest λ at which Algorithm 1 still finds a
+    complete sequence, docs/metrics.md), None above `FULL_TABLE_MAX_PARTS` parts; `scores`
+    gives any state's part scores (from the table, or scored on demand).
+    """
+
+    ranked: list[Ranked]
+    feasibility: float | None
+    scores: StateScores
+    passes: int
+
+
+def rank_sequences(scorer: Scorer, assembly: Assembly, k: int, threshold: float = 0.0) -> Ranking:
+    """The `k` most probable complete sequences with every step ≥ `threshold`, best first."""
+    n = assembly.n_parts
+    if n <= FULL_TABLE_MAX_PARTS:
+        scored = score_states(scorer, assembly, threshold=0.0)
+        scores = table_scores(scored)
+        ranked = top_k(scores, n, k, threshold, completion_bounds(scored, threshold))
+        return Ranking(ranked, bottleneck(scored), scores, scored.passes)
+    lazy = lazy_scores(scorer, assembly)
+    ranked = top_k(lazy, n, k, threshold)
+    return Ranking(ranked, None, lazy, len(lazy.cache))  # type: ignore[attr-defined]

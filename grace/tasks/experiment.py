@@ -15,7 +15,7 @@ import math
 import os
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +42,8 @@ from grace.tasks.progress import ExperimentProgress, FoldReporter
 from grace.tasks.runner import TaskSettings
 from grace.visualisation.analysis import draw_analysis
 from grace.visualisation.plots import p_at_k_bars, pr_curves
+from grace.visualisation.recording import write_recording
+from grace.visualisation.records import RecordingSettings, SequenceRecord, fold_records
 
 log = logging.getLogger(__name__)
 
@@ -57,6 +59,7 @@ class ExperimentSettings(TaskSettings):
     baselines: list[str] = MISSING
     train_feasible_only: bool = MISSING  # train on feasible assemblies only (training_subset)
     fold_jobs: int = MISSING
+    recording: RecordingSettings = field(default_factory=RecordingSettings)  # sequences.rrd
 
 
 @dataclass
@@ -122,6 +125,7 @@ class FoldResult:
     train_s: float
     evaluate_s: float
     health: dict
+    records: list[SequenceRecord]
 
 
 def run_fold(
@@ -162,9 +166,10 @@ def run_fold(
     progress.stage("evaluating")
     tick = time.perf_counter()
     ks = [int(k) for k in cfg.task.ks]
+    policies = _policies(cfg, module, fold)
     metrics = {
         name: evaluate_by_size(scorer, test, ks, cfg.task.threshold)
-        for name, scorer in _policies(cfg, module, fold).items()
+        for name, scorer in policies.items()
     }
     estimator = OmegaConf.select(cfg, "classifier.estimator")
     if estimator is not None:
@@ -173,9 +178,14 @@ def run_fold(
     health = fold_health(metrics, val, fold_dir / "logs")
     if health["collapsed"]:
         log.warning("fold %d COLLAPSED: %s", fold.index, "; ".join(health["reasons"]))
+    settings = RecordingSettings(**cfg.task.recording)
+    records = []
+    if settings.per_size > 0:  # sequences.rrd (docs/recordings.md)
+        simulator = instantiate(cfg.simulator)
+        records = fold_records(policies["GRACE"], test, simulator, settings, fold.index)
     evaluate_s = time.perf_counter() - tick
     progress.done(train_s, evaluate_s)
-    return FoldResult(metrics, train_s, evaluate_s, {"fold": fold.index, **health})
+    return FoldResult(metrics, train_s, evaluate_s, {"fold": fold.index, **health}, records)
 
 
 def portable(cfg: DictConfig) -> DictConfig:
@@ -255,6 +265,9 @@ def run(cfg: DictConfig) -> float:
         {"GRACE": per_size, **{b: baselines[b]["per_size"] for b in baselines}},
         out_dir / "p_at_k.png",
     )
+    records = [record for r in fold_results for record in r.records]
+    if records:
+        write_recording(records, out_dir / "sequences.rrd", out_dir.name)
     seq = [entry["seq_auc"]["mean"] for entry in per_size.values() if "seq_auc" in entry]
     objective = float(np.mean(seq)) if seq else math.nan
     if results["collapsed_folds"]:

@@ -44,6 +44,8 @@ from grace.tasks.experiment import ExperimentSettings, ProtocolSettings
 from grace.tasks.feasibility import FeasibilitySettings
 from grace.tasks.gather import GatherSettings
 from grace.tasks.generate import GenerateSettings
+from grace.tasks.plan import PlanSettings
+from grace.tasks.replay import ReplaySettings
 from grace.tasks.train import TrainSettings
 
 _SCALARS = (int, float, bool, str, bytes, Path)
@@ -169,6 +171,9 @@ class RootConfig:
     threads: int = 2
     train_size: int = 5
     test_size: int = 5
+    ckpt: str | None = None
+    assembly: str | None = None
+    path: str | None = None
     monitor: Monitor = field(default_factory=Monitor)
     paths: Paths = field(default_factory=Paths)
     task: Any = MISSING
@@ -213,6 +218,8 @@ def register_schemas() -> None:
         "task/bench": BenchSettings,
         "task/gather": GatherSettings,
         "task/feasibility": FeasibilitySettings,
+        "task/plan": PlanSettings,
+        "task/replay": ReplaySettings,
     }
     for path, node in groups.items():
         group, _, name = f"schema/{path}".rpartition("/")

@@ -15,10 +15,24 @@ import lightning.pytorch as pl
 from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf, open_dict
 
+from grace.data.atomic import write_text_atomic
 from grace.domain.sample import LabelledAssembly
 from grace.errors import UserError
 from grace.model.module import GraceModule
 from grace.model.training import fit
+
+KEPT_CONFIG = "config.yaml"
+"""The resolved config of a training run, kept in its folder beside `checkpoints/` so that the
+model can be rebuilt later (task=plan)."""
+
+
+def keep_config(cfg: DictConfig, out_dir: str | Path) -> Path:
+    """Write `cfg` (resolved, without Hydra's own node) to `out_dir/config.yaml`."""
+    node = OmegaConf.to_container(cfg, resolve=True)
+    node.pop("hydra", None)
+    path = Path(out_dir) / KEPT_CONFIG
+    write_text_atomic(path, OmegaConf.to_yaml(OmegaConf.create(node)))
+    return path
 
 
 def fit_config(cfg: DictConfig, out_dir: str | Path, validated: bool) -> DictConfig:
@@ -49,13 +63,15 @@ def train_module(
 ) -> GraceModule:
     """A module trained on `train`, early-stopped on `val`, with its best checkpoint's weights.
 
-    Checkpoints and logs go under `out_dir`; `callbacks` are added to the configured ones.
+    Checkpoints, logs and the run's config (config.yaml) go under `out_dir`; `callbacks` are
+    added to the configured ones.
     """
     if not train:
         raise UserError(
             "the training set is empty; fix: check dataset.sizes and the protocol's sizes"
         )
     cfg = fit_config(cfg, out_dir, validated=bool(val))
+    keep_config(cfg, out_dir)
     module = instantiate(cfg.model)
     datamodule = instantiate(cfg.datamodule)(
         train=train, val=val, enc=module.enc, collate=module.impl.collate

@@ -1,0 +1,189 @@
+"""`python -m grace task=plan ckpt=<run folder or .ckpt> assembly=<raw folder or assembly.spec>`.
+
+Plans one assembly with a kept model (docs/recordings.md, "Planning an assembly"): the `k` most
+probable complete sequences, best first (Algorithm 1's scores over distinct states, then
+best-first top-k, grace/planning/topk.py), each with its probability and step scores, the
+assembly's feasibility score (the bottleneck: the largest λ at which Algorithm 1 still finds a
+sequence, docs/metrics.md), and every listed sequence checked step by step in the simulator the
+model was trained with (verdict; at the first failing step the deciding rule and what blocks
+it). Writes plan.json and plan.rrd into the run folder.
+
+The model is rebuilt from the `config.yaml` kept beside its checkpoint (<fold>/config.yaml, see
+grace/tasks/training.py), and the checkpoint's weights must fit it exactly: a checkpoint made for
+another config stops with one line naming both files.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import torch
+from hydra.utils import instantiate
+from omegaconf import MISSING, DictConfig, OmegaConf
+
+from grace.data.atomic import write_text_atomic
+from grace.data.raw_format import read_assembly
+from grace.errors import UserError
+from grace.model.module import GraceModule
+from grace.model.scoring import make_scorer
+from grace.simulation.check import blockers, describe
+from grace.tasks.runner import TaskSettings
+from grace.tasks.training import KEPT_CONFIG
+from grace.visualisation.recording import write_recording
+from grace.visualisation.records import SequenceRecord, sequence_record
+
+log = logging.getLogger(__name__)
+
+CHECKPOINT = Path("checkpoints") / "best.ckpt"
+
+
+@dataclass
+class PlanSettings(TaskSettings):
+    """Schema of `task=plan` (values in grace/conf/task/plan.yaml)."""
+
+    ckpt: str | None = MISSING  # a run folder (train or experiment) or a .ckpt file
+    assembly: str | None = MISSING  # a raw assembly folder or an assembly.spec file
+    fold: int = 0  # which fold's model of an experiment run folder
+    k: int = 10  # sequences listed, best first
+    threshold: float = 0.0  # λ: only sequences whose every step scores ≥ λ are listed
+
+
+def find_checkpoint(path: str | Path, fold: int = 0) -> Path:
+    """The checkpoint `path` names: a .ckpt file, a train run folder or an experiment run folder
+    (its `fold_<fold>`)."""
+    path = Path(path)
+    candidates = [path] if path.suffix == ".ckpt" else [path / CHECKPOINT]
+    candidates.append(path / f"fold_{fold}" / CHECKPOINT)
+    found = next((c for c in candidates if c.is_file()), None)
+    if found is None:
+        raise UserError(
+            f"ckpt={path}: no checkpoint there (looked for {', '.join(map(str, candidates))}); "
+            "fix: pass a .ckpt file or the folder of a train or experiment run"
+        )
+    return found
+
+
+def load_model(ckpt: Path) -> tuple[GraceModule, DictConfig]:
+    """The module rebuilt from the config kept beside `ckpt`, with the checkpoint's weights."""
+    kept = ckpt.parent.parent / KEPT_CONFIG
+    if not kept.is_file():
+        raise UserError(
+            f"ckpt={ckpt}: no {KEPT_CONFIG} beside it ({kept}); fix: use a checkpoint of a run "
+            f"that kept its config (every train and experiment run writes one)"
+        )
+    cfg = OmegaConf.load(kept)
+    try:
+        # Our own run's file: the full pickle is trusted (Lightning stores objects in it).
+        state = torch.load(ckpt, map_location="cpu", weights_only=False)["state_dict"]
+    except Exception as e:
+        raise UserError(
+            f"ckpt={ckpt}: not a readable Lightning checkpoint ({type(e).__name__}: {e}); "
+            "fix: pass the best.ckpt a train or experiment run wrote"
+        ) from None
+    module = instantiate(cfg.model)
+    try:
+        module.load_state_dict(state, strict=True)
+    except RuntimeError as e:
+        first = str(e).splitlines()[1].strip() if len(str(e).splitlines()) > 1 else str(e)
+        raise UserError(
+            f"ckpt={ckpt} was made for another config than {kept} ({first}); fix: keep the "
+            "checkpoint beside the config.yaml of the run that trained it"
+        ) from None
+    return module.eval(), cfg
+
+
+def plan_json(record: SequenceRecord, sources: dict[str, Any]) -> dict[str, Any]:
+    """plan.json: the listed sequences with probabilities, step scores and simulator checks."""
+    names = [p.name for p in record.assembly.parts]
+    outside = {f.rank for f in record.failures}
+    known = record.n_truth_orders is not None
+    sequences = []
+    for rank, (seq, check) in enumerate(zip(record.ranked, record.checks, strict=True), 1):
+        failure = check.failure
+        sequences.append(
+            {
+                "rank": rank,
+                "sequence": list(seq.sequence),
+                "parts": [names[p] for p in seq.sequence],
+                "probability": seq.probability,
+                "step_scores": list(seq.step_scores),
+                "simulator": {
+                    "feasible": check.feasible,
+                    "verdicts": [v.feasible for v in check.verdicts],
+                    "failing_step": check.failing_step,
+                    "rule": failure.rule if failure else None,
+                    "blocking_parts": sorted(
+                        {b.part for b in blockers(failure) if b.part is not None}
+                    )
+                    if failure
+                    else [],
+                    "reason": describe(failure, names) if failure else None,
+                },
+                # a ground-truth order of the assembly's raw folder (null: none given)
+                "ground_truth": rank not in outside if known else None,
+            }
+        )
+    return {
+        **sources,
+        "name": record.assembly.name,
+        "n_parts": record.assembly.n_parts,
+        "feasibility": record.feasibility,
+        "ground_truth_orders": record.n_truth_orders,
+        "sequences": sequences,
+    }
+
+
+def run(cfg: DictConfig) -> float | None:
+    """Plan `task.assembly` with the model of `task.ckpt`; return its feasibility score."""
+    out_dir = Path(cfg.paths.output_dir)
+    begin = time.perf_counter()
+    for key, what in (("ckpt", "<run folder or .ckpt>"), ("assembly", "<raw folder or .spec>")):
+        if not cfg.task[key]:
+            raise UserError(f"task=plan needs {key}=; fix: add {key}={what}")
+    ckpt = find_checkpoint(cfg.task.ckpt, int(cfg.task.fold))
+    assembly, truth = read_assembly(cfg.task.assembly)
+    module, kept = load_model(ckpt)
+    simulator = instantiate(kept.simulator)
+    start = time.perf_counter()
+    load_seconds = start - begin
+    record = sequence_record(
+        "plan",
+        assembly,
+        make_scorer(module),
+        simulator,
+        truth,
+        int(cfg.task.k),
+        int(cfg.task.k),
+        float(cfg.task.threshold),
+    )
+    seconds = time.perf_counter() - start
+    sources = {
+        "checkpoint": str(ckpt),
+        "assembly": str(cfg.task.assembly),
+        "seconds": seconds,  # scoring, top-k, simulator checks and poses (model loaded)
+        "load_seconds": load_seconds,  # checkpoint, config, assembly, simulator
+    }
+    result = plan_json(record, {**sources, "k": int(cfg.task.k), "threshold": cfg.task.threshold})
+    write_text_atomic(out_dir / "plan.json", json.dumps(result, indent=2) + "\n")
+    write_recording([record], out_dir / "plan.rrd", out_dir.name)
+    feas = "n/a" if record.feasibility is None else f"{record.feasibility:.4f}"
+    print(f"{assembly.name}: {assembly.n_parts} parts, feasibility score {feas}")
+    for entry in result["sequences"]:
+        sim = entry["simulator"]
+        verdict = "feasible"
+        if not sim["feasible"]:
+            verdict = f"fails at step {sim['failing_step']}: {sim['reason']}"
+        order = " ".join(str(p) for p in entry["sequence"])
+        print(f"{entry['rank']:3d}. {order}  p={entry['probability']:.4g}  simulator: {verdict}")
+    if not result["sequences"]:
+        print(f"no complete sequence has every step scoring ≥ {cfg.task.threshold}")
+    print(
+        f"planned and checked in {seconds:.2f} s (loading {load_seconds:.2f} s); "
+        f"plan.json and plan.rrd in {out_dir}"
+    )
+    return record.feasibility

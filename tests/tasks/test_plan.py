@@ -1,0 +1,136 @@
+"""task=plan: a kept model plans a hand-made assembly; the simulator checks every listed order."""
+
+from __future__ import annotations
+
+import itertools
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import torch
+from hydra.utils import instantiate
+
+from grace.data.raw_format import read_assembly
+from grace.errors import UserError
+from grace.model.loss import grace_loss
+from grace.tasks.plan import run
+from grace.tasks.training import keep_config
+from grace.visualisation.recording import summarise, text_entries
+
+# Hand-made: a 300 mm bar, a 200 mm stem and an angle bracket joining them. Placed first, the
+# bracket has nothing to hold it (fixation); placed last, between both profiles, the gripper's
+# fingers hit them (fingers). So the bracket goes second.
+SPEC = """begin Pieces
+bar item_profile_300 0;-1;0;0&1;0;0;0&0;0;1;0&0;0;0;1
+stem item_profile_200 1;0;0;0.25&0;1;0;120&0;0;1;0&0;0;0;1
+br item_angle_bracket 1;0;0;20.25&0;1;0;20&0;0;1;0&0;0;0;1
+end Pieces
+"""
+KNOWN_ORDERS = {(0, 2, 1), (1, 2, 0)}  # bar, bracket, stem / stem, bracket, bar
+
+
+def fit(cfg_factory, root):
+    """A small GRACE fitted to the hand-made assembly's states (a plain Adam loop: Lightning's
+    per-epoch work would cost more than the fit), kept as a run would keep it."""
+    (root / "asm").mkdir()
+    (root / "asm" / "assembly.spec").write_text(SPEC)
+    cfg = cfg_factory("task=train", "model.net.hidden=32", "model.net.pair_readout=16", "threads=1")
+    assembly, truth = read_assembly(root / "asm")
+    assert truth is None  # a lone assembly.spec: no ground truth given
+    sample = instantiate(cfg.simulator).label(assembly)
+    assert set(sample.truth.orders()) == KNOWN_ORDERS  # the world's answer this test relies on
+    torch.manual_seed(0)
+    module = instantiate(cfg.model)
+    data = instantiate(cfg.datamodule)(
+        train=[sample], val=[], enc=module.enc, collate=module.impl.collate
+    )
+    batches = list(data.train_dataloader())
+    optimiser = torch.optim.Adam(module.parameters(), lr=0.01)
+    for _ in range(150):
+        for batch in batches:
+            logits = module(batch)
+            loss = grace_loss(logits, batch.labels, batch.flags, batch.mask, module.delta)
+            optimiser.zero_grad()
+            loss.backward()
+            optimiser.step()
+    (root / "train" / "checkpoints").mkdir(parents=True)
+    torch.save({"state_dict": module.state_dict()}, root / "train" / "checkpoints" / "best.ckpt")
+    keep_config(cfg, root / "train")
+    return sample.truth
+
+
+def plan(cfg_factory, ckpt, assembly, *overrides):
+    cfg = cfg_factory("task=plan", f"ckpt={ckpt}", f"assembly={assembly}", *overrides)
+    run(cfg)
+    return json.loads((Path(cfg.paths.output_dir) / "plan.json").read_text()), cfg
+
+
+def test_plan_with_a_model_fitted_to_a_hand_made_assembly(cfg_factory, tmp_path):
+    truth = fit(cfg_factory, tmp_path)
+    placeable = dict(zip(truth.states.tolist(), truth.placeable.tolist(), strict=True))
+    train, asm = tmp_path / "train", tmp_path / "asm"
+    assert (train / "config.yaml").is_file() and (train / "checkpoints" / "best.ckpt").is_file()
+
+    # Algorithm 1 at λ = 0.5 retrieves exactly the known orders; the simulator passes them.
+    result, _ = plan(cfg_factory, train, asm, "task.k=6", "task.threshold=0.5")
+    assert {tuple(s["sequence"]) for s in result["sequences"]} == KNOWN_ORDERS
+    assert all(s["simulator"]["feasible"] for s in result["sequences"])
+    assert result["feasibility"] >= 0.5
+
+    # All 3! orders best first: the known ones first, every other one refused by the simulator
+    # at its first step outside them, with the deciding rule.
+    result, cfg = plan(cfg_factory, train / "checkpoints" / "best.ckpt", asm, "task.k=6")
+    ranked = [tuple(s["sequence"]) for s in result["sequences"]]
+    assert sorted(ranked) == sorted(itertools.permutations(range(3)))
+    assert set(ranked[:2]) == KNOWN_ORDERS
+    for entry in result["sequences"]:
+        order, sim = tuple(entry["sequence"]), entry["simulator"]
+        assert sim["feasible"] == (order in KNOWN_ORDERS)
+        if not sim["feasible"]:
+            # the first step the ground truth's reachable-state DAG does not allow
+            state, step = 0, 0
+            while placeable[state] >> order[step] & 1:
+                state, step = state | 1 << order[step], step + 1
+            assert sim["failing_step"] == step and sim["rule"] and sim["reason"]
+    rrd = Path(cfg.paths.output_dir) / "plan.rrd"
+    summary = summarise(rrd)
+    assert {"/plan/asm/sequences", "/plan/asm/cell/parts", "/plan/asm/scores"} <= set(
+        summary.entities
+    )
+    assert summary.steps == (0, 2)
+    refused = [t for _, _, t in text_entries(rrd, "/failures")]
+    assert len(refused) == 4 and all("is refused by the simulator" in t for t in refused)
+    assert any("fingers: finger hits part" in t for t in refused)
+    assert any("fixation" in t for t in refused)
+
+    # Bad inputs: one UserError line each.
+    with pytest.raises(UserError, match="no checkpoint there"):
+        plan(cfg_factory, tmp_path / "nothing", asm)
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    (bad / "assembly.spec").write_text("begin Pieces\nx item_profile_400 1\nend Pieces\n")
+    with pytest.raises(UserError, match="unknown part type"):
+        plan(cfg_factory, train, bad)
+    other = tmp_path / "other"  # the checkpoint beside the config of a different network
+    shutil.copytree(train / "checkpoints", other / "checkpoints")
+    text = (train / "config.yaml").read_text().replace("hidden: 32", "hidden: 40")
+    (other / "config.yaml").write_text(text)
+    with pytest.raises(UserError, match="was made for another config"):
+        plan(cfg_factory, other, asm)
+    (other / "checkpoints" / "best.ckpt").write_text("not a checkpoint")
+    with pytest.raises(UserError, match="not a readable Lightning checkpoint"):
+        plan(cfg_factory, other, asm)
+
+
+def test_the_command_prints_one_line_and_exits_non_zero(tmp_path):
+    result = subprocess.run(
+        [sys.executable, "-m", "grace", "task=plan", f"ckpt={tmp_path}", f"assembly={tmp_path}",
+         f"hydra.run.dir={tmp_path / 'run'}"],
+        capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    assert result.returncode != 0
+    errors = [line for line in result.stderr.splitlines() if line.startswith("error:")]
+    assert len(errors) == 1 and "ckpt=" in errors[0] and "Traceback" not in result.stderr
