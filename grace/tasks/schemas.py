@@ -45,6 +45,8 @@ from grace.tasks.feasibility import FeasibilitySettings
 from grace.tasks.gather import GatherSettings
 from grace.tasks.generate import GenerateSettings
 from grace.tasks.train import TrainSettings
+from grace.tasks.tune import TuneSettings
+from grace.tasks.tune_space import TuneConfig
 
 _SCALARS = (int, float, bool, str, bytes, Path)
 
@@ -182,6 +184,7 @@ class RootConfig:
     protocol: Any = None
     classifier: Any = None
     scale: Any = None
+    tune: Any = None
 
 
 def register_schemas() -> None:
@@ -213,6 +216,8 @@ def register_schemas() -> None:
         "task/bench": BenchSettings,
         "task/gather": GatherSettings,
         "task/feasibility": FeasibilitySettings,
+        "task/tune": TuneSettings,
+        "tune": TuneConfig,
     }
     for path, node in groups.items():
         group, _, name = f"schema/{path}".rpartition("/")
