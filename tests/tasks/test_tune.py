@@ -17,7 +17,7 @@ from omegaconf import OmegaConf
 
 from grace.errors import UserError
 from grace.tasks.tune import KeptMetric, run
-from grace.tasks.tune_space import trial_config
+from grace.tasks.tune_space import suggest, trial_config
 
 ROOT = Path(__file__).resolve().parents[2]
 TASKS = Path(__file__).resolve().parent
@@ -148,3 +148,26 @@ def test_one_real_trial_scores_the_kept_epoch_of_lightnings_log(tmp_path, cfg_fa
     (trial,) = _study(out).trials
     reported = [trial.intermediate_values[epoch] for epoch in (0, 1)]
     assert reported == pytest.approx([float(r["val_step_auc"]) for r in rows], abs=1e-6)
+
+
+def test_a_derived_space_drops_and_adds_keys_and_ranges_hold(cfg_factory):
+    cfg = cfg_factory("task=tune", "tune=training")
+    study = optuna.create_study(sampler=optuna.samplers.RandomSampler(seed=0))
+    for _ in range(20):
+        values = suggest(study.ask(), cfg.tune.space, cfg)
+        assert set(values) == {
+            "model.optimizer.lr",
+            "callbacks.early_stopping.patience",
+            "datamodule.batch_size",
+            "model.scheduler.factor",
+        }
+        assert 3e-4 <= values["model.optimizer.lr"] <= 1e-2
+        assert 0.2 <= values["model.scheduler.factor"] <= 0.8
+        assert values["datamodule.batch_size"] in (64, 128, 256)
+        assert trial_config(cfg, values).model.scheduler.factor == values["model.scheduler.factor"]
+
+
+def test_a_value_the_schema_refuses_is_named(cfg_factory):
+    cfg = cfg_factory("task=tune", "tune.space.hidden.low=32.5")  # a float for an int key
+    with pytest.raises(UserError, match=re.escape("model.net.hidden=")):
+        trial_config(cfg, suggest(optuna.create_study().ask(), cfg.tune.space, cfg))
