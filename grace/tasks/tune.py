@@ -34,7 +34,7 @@ from grace.errors import UserError
 from grace.tasks.experiment import _folds, _overrides
 from grace.tasks.runner import TaskSettings
 from grace.tasks.tune_report import write_report
-from grace.tasks.tune_space import suggest, trial_config
+from grace.tasks.tune_space import Param, parse_space, suggest, trial_config
 
 log = logging.getLogger(__name__)
 
@@ -85,12 +85,12 @@ class _Data:
         return self._cache[key]
 
 
-def _objective(cfg: DictConfig, out_dir: Path, prune: bool) -> Any:
+def _objective(cfg: DictConfig, params: list[Param], out_dir: Path, prune: bool) -> Any:
     data_for = _Data()
     metric = cfg.tune.metric
 
     def objective(trial: optuna.Trial) -> float:
-        values = suggest(trial, cfg.tune.space, cfg)
+        values = suggest(trial, params)
         trial_cfg = trial_config(cfg, values)
         data = data_for(trial_cfg)
         folds = _folds(trial_cfg, [sample.size for sample in data])[2][: cfg.tune.folds]
@@ -151,13 +151,14 @@ def run(cfg: DictConfig) -> float:
     cfg = trial_config(cfg, {"trainer.enable_progress_bar": False})  # one line per trial instead
     if cfg.tune.folds is not None and cfg.tune.folds < 1:
         raise UserError(f"tune.folds={cfg.tune.folds}: use a positive number or null (all)")
+    params = parse_space(cfg.tune.space, cfg)
     storage = storage_url(cfg, out_dir)
     study = open_study(cfg, storage)
     log.info(
         "study %s: %d trials so far; follow it with: optuna-dashboard %s",
         *(cfg.tune.study_name, len(study.trials), storage),
     )
-    objective = _objective(cfg, out_dir, prune=cfg.tune.pruner is not None)
+    objective = _objective(cfg, params, out_dir, prune=cfg.tune.pruner is not None)
     study.optimize(objective, n_trials=cfg.tune.n_trials, timeout=cfg.tune.timeout)
     report = write_report(study, cfg, out_dir, storage, _overrides())
     log.info("%s", report.message)

@@ -78,13 +78,16 @@ def _param(name: str, entry: Any, cfg: DictConfig) -> Param:
     return param
 
 
-def suggest(trial: optuna.Trial, space: DictConfig, cfg: DictConfig) -> dict[str, Any]:
-    """The trial's value of every key of `space` (checked against `cfg`), by config key."""
+def parse_space(space: DictConfig, cfg: DictConfig) -> list[Param]:
+    """The entries of `tune.space` as Params, each checked against `cfg` (entries set to null
+    are dropped: a derived space removes a key of the one it extends that way)."""
+    return [_param(str(name), entry, cfg) for name, entry in space.items() if entry is not None]
+
+
+def suggest(trial: optuna.Trial, params: list[Param]) -> dict[str, Any]:
+    """The trial's value of every param, by config key."""
     values = {}
-    for name, entry in space.items():
-        if entry is None:  # dropped from a derived space with `name: null`
-            continue
-        param = _param(str(name), entry, cfg)
+    for param in params:
         if param.choices is not None:
             values[param.key] = trial.suggest_categorical(param.key, list(param.choices))
         elif isinstance(param.low, int) and isinstance(param.high, int):

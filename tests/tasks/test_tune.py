@@ -17,7 +17,7 @@ from omegaconf import OmegaConf
 
 from grace.errors import UserError
 from grace.tasks.tune import KeptMetric, run
-from grace.tasks.tune_space import suggest, trial_config
+from grace.tasks.tune_space import parse_space, suggest, trial_config
 
 ROOT = Path(__file__).resolve().parents[2]
 TASKS = Path(__file__).resolve().parent
@@ -128,6 +128,7 @@ def test_a_space_key_missing_from_the_config_is_named(tmp_path, cfg_factory):
     )  # fmt: skip
     with pytest.raises(UserError, match=re.escape("tune.space.typo.key=model.optimizer.lrr")):
         run(cfg)
+    assert not (Path(cfg.paths.output_dir) / "study.db").exists()  # stopped before the study
 
 
 def test_one_real_trial_scores_the_kept_epoch_of_lightnings_log(tmp_path, cfg_factory):
@@ -154,7 +155,7 @@ def test_a_derived_space_drops_and_adds_keys_and_ranges_hold(cfg_factory):
     cfg = cfg_factory("task=tune", "tune=training")
     study = optuna.create_study(sampler=optuna.samplers.RandomSampler(seed=0))
     for _ in range(20):
-        values = suggest(study.ask(), cfg.tune.space, cfg)
+        values = suggest(study.ask(), parse_space(cfg.tune.space, cfg))
         assert set(values) == {
             "model.optimizer.lr",
             "callbacks.early_stopping.patience",
@@ -170,4 +171,4 @@ def test_a_derived_space_drops_and_adds_keys_and_ranges_hold(cfg_factory):
 def test_a_value_the_schema_refuses_is_named(cfg_factory):
     cfg = cfg_factory("task=tune", "tune.space.hidden.low=32.5")  # a float for an int key
     with pytest.raises(UserError, match=re.escape("model.net.hidden=")):
-        trial_config(cfg, suggest(optuna.create_study().ask(), cfg.tune.space, cfg))
+        trial_config(cfg, suggest(optuna.create_study().ask(), parse_space(cfg.tune.space, cfg)))
