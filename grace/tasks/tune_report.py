@@ -80,7 +80,7 @@ def _markdown(summary: dict[str, Any]) -> str:
         f"# Tune: study `{summary['study_name']}`",
         "",
         f"{summary['direction']} `{summary['metric']}` (validation assemblies, mean over "
-        f"{summary['folds']} folds). Trials: "
+        f"{summary['folds'] or 'all'} folds). Trials: "
         + ", ".join(f"{n} {state.lower()}" for state, n in summary["states"].items())
         + ".",
         "",
