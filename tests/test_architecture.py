@@ -122,11 +122,24 @@ def branch_tests(tree: ast.AST) -> list[ast.expr]:
 
 
 def config_string_branches(tree: ast.AST) -> list[tuple[int, str]]:
-    """(line, string) of every branch on a string that a config can hold."""
+    """(line, string) of every branch on a string that a config can hold. A string that only
+    looks a key up (`row["val_step_auc"]`, `row.get("val_step_auc")`) is no branch on it: metric
+    names are config strings too (`monitor.metric`, `tune.metric`)."""
     found = []
     for test in branch_tests(tree):
+        keys = set()
         for node in ast.walk(test):
-            if isinstance(node, ast.Constant) and node.value in CHOICES:
+            if isinstance(node, ast.Subscript):
+                keys.add(id(node.slice))
+            elif (
+                isinstance(node, ast.Call)
+                and isinstance(node.func, ast.Attribute)
+                and node.func.attr == "get"
+                and node.args
+            ):
+                keys.add(id(node.args[0]))
+        for node in ast.walk(test):
+            if isinstance(node, ast.Constant) and node.value in CHOICES and id(node) not in keys:
                 found.append((node.lineno, node.value))
     return sorted(found)
 
@@ -140,6 +153,8 @@ def test_the_rule_sees_a_branch_on_a_config_string():
     )
     assert config_string_branches(ast.parse(code)) == [(1, "fast"), (3, "pyg"), (4, "orders")]
     assert config_string_branches(ast.parse("if line == 'begin Pieces':\n    pass\n")) == []
+    lookups = "x = [r for r in rows if r.get('orders')]\ny = 1 if r['fast'] == 'pyg' else 2\n"
+    assert config_string_branches(ast.parse(lookups)) == [(2, "pyg")]
 
 
 @pytest.mark.parametrize(

@@ -47,6 +47,8 @@ from grace.tasks.generate import GenerateSettings
 from grace.tasks.plan import PlanSettings
 from grace.tasks.replay import ReplaySettings
 from grace.tasks.train import TrainSettings
+from grace.tasks.tune import TuneSettings
+from grace.tasks.tune_space import TuneConfig
 
 _SCALARS = (int, float, bool, str, bytes, Path)
 
@@ -187,6 +189,7 @@ class RootConfig:
     protocol: Any = None
     classifier: Any = None
     scale: Any = None
+    tune: Any = None
 
 
 def register_schemas() -> None:
@@ -220,6 +223,8 @@ def register_schemas() -> None:
         "task/feasibility": FeasibilitySettings,
         "task/plan": PlanSettings,
         "task/replay": ReplaySettings,
+        "task/tune": TuneSettings,
+        "tune": TuneConfig,
     }
     for path, node in groups.items():
         group, _, name = f"schema/{path}".rpartition("/")
