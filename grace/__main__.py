@@ -1,20 +1,35 @@
 """Entry point: `python -m grace task=<name> ...` (or `grace ...`) composes the config and runs one
-task. The configs ship inside the package (grace/conf), so this works from any folder."""
+task. The configs ship inside the package (grace/conf), so this works from any folder.
+
+The command line is checked first (grace/tasks/preflight.py): a user error is one line on
+stderr and exit code 2, before Hydra creates the run folder.
+"""
+
+import sys
 
 import hydra
 from omegaconf import DictConfig
 
 from grace import CONF_DIR
-from grace.tasks.runner import run_task
-from grace.tasks.schemas import register_schemas
-
-register_schemas()
+from grace.tasks.preflight import debugging, preflight, run_dir_overrides, user_errors
 
 
 # An absolute path: found whether this module runs as __main__ or from the console script.
 @hydra.main(version_base="1.3", config_path=str(CONF_DIR), config_name="config")
-def main(cfg: DictConfig) -> float | None:
-    return run_task(cfg)
+def run(cfg: DictConfig) -> float | None:
+    """One Hydra job: the task of `cfg` (a user error: one line, exit 2)."""
+    from grace.tasks.runner import run_task  # torch and Lightning: after the checks
+
+    with user_errors(debugging(sys.argv[1:]) or bool(cfg.debug)):
+        return run_task(cfg)
+
+
+def main() -> None:
+    """Check the command line, then let Hydra run it."""
+    with user_errors(debugging(sys.argv[1:])):
+        preflight(sys.argv[1:])
+        sys.argv += run_dir_overrides(sys.argv[1:])
+    run()
 
 
 if __name__ == "__main__":

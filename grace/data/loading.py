@@ -13,6 +13,7 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
+from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -99,3 +100,7 @@ class RawSource:
                 "dataset=raw needs dataset.path; fix: add dataset.path=/folder/of/assembly/folders"
             )
         return select_sizes(import_raw_tree(self.path, self.data_dir), self.sizes)
+
+    def counts(self) -> dict[int, int]:
+        """Assemblies per size that :meth:`load` returns (imports the folders once, cached)."""
+        return dict(sorted(Counter(sample.size for sample in self.load()).items()))

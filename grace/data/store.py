@@ -85,7 +85,13 @@ def requested_sizes(sizes: Mapping[Any, Any] | None) -> dict[int, int]:
         raise UserError(
             "dataset.sizes is empty; fix: set it (e.g. scale=smoke) to a mapping size → count"
         )
-    out = {int(k): int(v) for k, v in sizes.items()}
+    try:
+        out = {int(k): int(v) for k, v in sizes.items()}
+    except (TypeError, ValueError):
+        raise UserError(
+            f"dataset.sizes={dict(sizes)} is not a mapping of integers; "
+            'fix: e.g. dataset.sizes="{3: 8, 4: 8}"'
+        ) from None
     bad = {k: v for k, v in out.items() if k < 1 or v < 0}
     if bad:
         raise UserError(f"dataset.sizes has invalid entries {bad}; fix: sizes ≥ 1 and counts ≥ 0")
@@ -215,6 +221,10 @@ class GeneratedSource:
         text = json.dumps(self.key_config(), sort_keys=True, separators=(",", ":"))
         key = hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
         return Path(self.data_dir).absolute() / f"generated-{key}"
+
+    def counts(self) -> dict[int, int]:
+        """Assemblies per size that :meth:`load` returns, known before any is generated."""
+        return {size: n for size, n in requested_sizes(self.sizes).items() if n > 0}
 
     def generate(self, shard: int | None = None, num_shards: int | None = None) -> Generation:
         """Generate this run's share of the missing chunks.
