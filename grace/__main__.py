@@ -2,7 +2,9 @@
 task. The configs ship inside the package (grace/conf), so this works from any folder.
 
 The command line is checked first (grace/tasks/preflight.py): a user error is one line on
-stderr and exit code 2, before Hydra creates the run folder.
+stderr and exit code 2, before Hydra creates the run folder. Ctrl-C and SIGTERM stop the run
+and its worker processes (grace/tasks/signals.py); the same command with
+`paths.output_dir=<the run folder>` resumes it.
 """
 
 import sys
@@ -12,6 +14,7 @@ from omegaconf import DictConfig
 
 from grace import CONF_DIR
 from grace.tasks.preflight import debugging, preflight, run_dir_overrides, user_errors
+from grace.tasks.signals import EXIT_INTERRUPTED, sigterm_as_interrupt
 
 
 # An absolute path: found whether this module runs as __main__ or from the console script.
@@ -20,12 +23,18 @@ def run(cfg: DictConfig) -> float | None:
     """One Hydra job: the task of `cfg` (a user error: one line, exit 2)."""
     from grace.tasks.runner import run_task  # torch and Lightning: after the checks
 
-    with user_errors(debugging(sys.argv[1:]) or bool(cfg.debug)):
-        return run_task(cfg)
+    try:
+        with user_errors(debugging(sys.argv[1:]) or bool(cfg.debug)):
+            return run_task(cfg)
+    except KeyboardInterrupt:
+        out = cfg.paths.output_dir
+        print(f"grace: interrupted; to resume: the same command with paths.output_dir={out}")
+        sys.exit(EXIT_INTERRUPTED)
 
 
 def main() -> None:
     """Check the command line, then let Hydra run it."""
+    sigterm_as_interrupt()
     with user_errors(debugging(sys.argv[1:])):
         preflight(sys.argv[1:])
         sys.argv += run_dir_overrides(sys.argv[1:])
