@@ -21,9 +21,9 @@ from grace.tasks.signals import EXIT_INTERRUPTED, sigterm_as_interrupt
 @hydra.main(version_base="1.3", config_path=str(CONF_DIR), config_name="config")
 def run(cfg: DictConfig) -> float | None:
     """One Hydra job: the task of `cfg` (a user error: one line, exit 2)."""
-    from grace.tasks.runner import run_task  # torch and Lightning: after the checks
-
     try:
+        from grace.tasks.runner import run_task  # torch and Lightning: after the checks
+
         with user_errors(debugging(sys.argv[1:]) or bool(cfg.debug)):
             return run_task(cfg)
     except KeyboardInterrupt:
@@ -35,9 +35,13 @@ def run(cfg: DictConfig) -> float | None:
 def main() -> None:
     """Check the command line, then let Hydra run it."""
     sigterm_as_interrupt()
-    with user_errors(debugging(sys.argv[1:])):
-        preflight(sys.argv[1:])
-        sys.argv += run_dir_overrides(sys.argv[1:])
+    try:
+        with user_errors(debugging(sys.argv[1:])):
+            preflight(sys.argv[1:])
+            sys.argv += run_dir_overrides(sys.argv[1:])
+    except KeyboardInterrupt:
+        print("grace: interrupted before the run started; nothing was written", file=sys.stderr)
+        sys.exit(EXIT_INTERRUPTED)
     run()
 
 

@@ -83,6 +83,11 @@ class Generation:
 
 def requested_sizes(sizes: Mapping[Any, Any] | None) -> dict[int, int]:
     """`dataset.sizes` as {size: count}, sizes ascending (YAML or CLI keys may be strings)."""
+    if sizes and not isinstance(sizes, Mapping):
+        raise UserError(
+            f"dataset.sizes={sizes!r} is not a mapping size → count; "
+            "fix: e.g. dataset.sizes={3: 8, 4: 8} (quoted for the shell)"
+        )
     if not sizes:
         raise UserError(
             "dataset.sizes is empty; fix: set it (e.g. scale=smoke) to a mapping size → count"

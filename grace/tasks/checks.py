@@ -26,7 +26,10 @@ def _list(node: object) -> list[int] | None:
 
 
 def ignored_options(cfg: DictConfig, overrides: list[str]) -> list[str]:
-    """Warnings for overrides of `PROTOCOL_KEYS` that the chosen protocol does not read."""
+    """Warnings for overrides of `PROTOCOL_KEYS` that the chosen protocol does not read (none
+    for a task without folds)."""
+    if cfg.task.name not in CROSS_VALIDATED:
+        return []
     given = {o.split("=", 1)[0].lstrip("+~"): o for o in overrides if "=" in o}
     used = OmegaConf.to_yaml(cfg.protocol, resolve=False)
     return [
@@ -37,10 +40,10 @@ def ignored_options(cfg: DictConfig, overrides: list[str]) -> list[str]:
     ]
 
 
-def check_config(cfg: DictConfig, overrides: list[str]) -> list[str]:
-    """Raise a UserError (one line) for a config that cannot run; return warnings to show."""
+def check_config(cfg: DictConfig) -> None:
+    """Raise a UserError (one line) for a config that cannot run."""
     if cfg.task.name not in CROSS_VALIDATED:
-        return []
+        return
     source = instantiate(cfg.dataset)
     counts = source.counts() if hasattr(source, "counts") else None
     proto = cfg.protocol
@@ -56,4 +59,3 @@ def check_config(cfg: DictConfig, overrides: list[str]) -> list[str]:
         check_fold_sizes(
             proto.name, counts, train, test, int(proto.folds), float(proto.val_fraction)
         )
-    return ignored_options(cfg, overrides)

@@ -27,7 +27,7 @@ from omegaconf.errors import OmegaConfBaseException
 
 from grace import CONF_DIR
 from grace.errors import UserError
-from grace.tasks.checks import check_config
+from grace.tasks.checks import check_config, ignored_options
 from grace.tasks.schemas import light_schemas, register_schemas
 
 EXIT_USER_ERROR = 2
@@ -112,10 +112,10 @@ def preflight(argv: list[str]) -> None:
     register_schemas(light=True)
     light = {path.split("/")[0] for path in light_schemas()}
     every_group = {p.name for p in CONF_DIR.iterdir() if p.is_dir()}
-    for warning in check_config(
-        _compose(overrides, every_group - light - {"simulator"}), overrides
-    ):
+    cfg = _compose(overrides, every_group - light - {"simulator"})
+    for warning in ignored_options(cfg, overrides):
         print(f"grace: warning: {warning}", file=sys.stderr)
+    check_config(cfg)
     register_schemas()
     _compose(overrides, set())
 

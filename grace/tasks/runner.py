@@ -12,7 +12,7 @@ from hydra.utils import instantiate
 from lightning.pytorch import seed_everything
 from omegaconf import MISSING, DictConfig
 
-from grace.tasks.checks import check_config
+from grace.tasks.checks import check_config, ignored_options
 from grace.tasks.logs import quiet_terminal
 
 log = logging.getLogger(__name__)
@@ -39,6 +39,7 @@ def run_task(cfg: DictConfig) -> float | None:
     seed_everything(cfg.seed, workers=True, verbose=False)
     torch.set_num_threads(cfg.threads)
     log.info("task %s", cfg.task.name)
-    for warning in check_config(cfg, task_overrides()):
+    for warning in ignored_options(cfg, task_overrides()):
         log.warning(warning)
+    check_config(cfg)
     return instantiate(cfg.task.run)(cfg)
