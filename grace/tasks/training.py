@@ -72,7 +72,10 @@ def train_module(
     return fit(module, datamodule, trainer, ckpt_path=resume_from(cfg, out_dir, configured))
 
 
-RUN_ONLY = ("paths", "threads", "debug", "task.fold_jobs", "trainer.enable_progress_bar")
+RUN_ONLY = (
+    *("paths", "threads", "debug", "task.fold_jobs", "trainer.enable_progress_bar"),
+    *("dataset.workers", "dataset.data_dir"),
+)
 """Keys that change where or how fast a run goes, never its results: a rerun may change them."""
 
 
