@@ -134,3 +134,25 @@ def test_an_option_the_protocol_ignores_is_named_at_once(tmp_path):
     )
     assert code == 2 and len(lines) == 2 and lines[1].startswith("grace: error: protocol intra")
     assert not modules & set(HEAVY)
+
+
+@pytest.mark.parametrize("ask", [("debug=true",), ("HYDRA_FULL_ERROR=1",)])
+def test_the_traceback_comes_on_request(tmp_path, ask):
+    env = {"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"}
+    overrides = ["seed=abc"]
+    if ask[0].startswith("HYDRA"):
+        env["HYDRA_FULL_ERROR"] = "1"
+    else:
+        overrides += ask
+    done = subprocess.run(
+        [sys.executable, "-m", "grace", *overrides],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode != 0
+    assert "Traceback (most recent call last)" in done.stderr
+    assert "could not be converted to Integer" in done.stderr
+    assert not list(tmp_path.iterdir())

@@ -3,6 +3,7 @@ some checkpoints exist) and rerun with the same command ends with the results.js
 uninterrupted run (issue 13). The fast test of the resume logic is tests/model/test_resume.py."""
 
 import json
+import os
 import signal
 import subprocess
 import sys
@@ -13,6 +14,7 @@ import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
+ENV = {**os.environ, "PYTHONPATH": str(ROOT)}  # this checkout's grace, from any folder
 
 
 def _command(tmp_path: Path, out: str) -> list[str]:
@@ -31,19 +33,17 @@ def _metrics(folder: Path) -> dict:
 
 @pytest.mark.slow
 def test_a_killed_experiment_resumes_to_the_same_metrics(tmp_path):
-    subprocess.run(_command(tmp_path, "whole"), cwd=tmp_path, check=True, capture_output=True)
+    subprocess.run(_command(tmp_path, "whole"), cwd=tmp_path, env=ENV, check=True)
+    log = (tmp_path / "killed.txt").open("w")
     killed = subprocess.Popen(
-        _command(tmp_path, "killed"),
-        cwd=tmp_path,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
+        _command(tmp_path, "killed"), cwd=tmp_path, env=ENV, stdout=log, stderr=log
     )
     while not list((tmp_path / "killed").glob("fold_*/checkpoints/last.ckpt")):
-        assert killed.poll() is None, "the run ended before its first checkpoint"
+        assert killed.poll() is None, (tmp_path / "killed.txt").read_text()
         time.sleep(0.2)
     time.sleep(np.random.default_rng().uniform(0, 3))  # a random point of the training
     killed.send_signal(signal.SIGTERM)
     assert killed.wait(timeout=60) != 0
     assert not (tmp_path / "killed" / "results.json").exists()
-    subprocess.run(_command(tmp_path, "killed"), cwd=tmp_path, check=True, capture_output=True)
+    subprocess.run(_command(tmp_path, "killed"), cwd=tmp_path, env=ENV, check=True)
     assert _metrics(tmp_path / "killed") == _metrics(tmp_path / "whole")
