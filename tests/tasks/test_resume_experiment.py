@@ -20,7 +20,7 @@ ENV = {**os.environ, "PYTHONPATH": str(ROOT)}  # this checkout's grace, from any
 def _command(tmp_path: Path, out: str) -> list[str]:
     return [
         *(sys.executable, "-m", "grace", "scale=smoke", "protocol.folds=2"),
-        *("trainer.max_epochs=6", "trainer.enable_progress_bar=false"),
+        *("trainer.max_epochs=12", "trainer.enable_progress_bar=false"),
         f"paths.data_dir={tmp_path / 'data'}",
         f"paths.output_dir={tmp_path / out}",
     ]
