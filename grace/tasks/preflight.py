@@ -28,7 +28,7 @@ from omegaconf.errors import OmegaConfBaseException
 from grace import CONF_DIR
 from grace.errors import UserError
 from grace.tasks.checks import check_config, ignored_options
-from grace.tasks.schemas import light_schemas, register_schemas
+from grace.tasks.schemas import light_schemas, referenced_schemas, register_schemas
 
 EXIT_USER_ERROR = 2
 CONFIG_ERRORS = (UserError, HydraException, OmegaConfBaseException)
@@ -75,11 +75,12 @@ def user_errors(debug: bool) -> Iterator[None]:
 
 
 def run_overrides(argv: list[str]) -> list[str] | None:
-    """The overrides of a single run, or None for what preflight leaves to Hydra (a sweep, or
-    --help, --cfg, --info and the like)."""
+    """The overrides of a single run, or None for what preflight leaves to Hydra (a sweep, another
+    config tree, or --help, --cfg, --info and the like)."""
     args = get_args_parser().parse_args(argv)
     informative = (args.help, args.hydra_help, args.cfg, args.info, args.shell_completion)
-    if args.multirun or any(informative) or args.config_path or args.config_name:
+    custom = (args.config_path, args.config_name, args.config_dir, args.experimental_rerun)
+    if args.multirun or any(informative) or any(custom):
         return None
     return list(args.overrides)
 
@@ -111,8 +112,8 @@ def preflight(argv: list[str]) -> None:
         return
     register_schemas(light=True)
     light = {path.split("/")[0] for path in light_schemas()}
-    every_group = {p.name for p in CONF_DIR.iterdir() if p.is_dir()}
-    cfg = _compose(overrides, every_group - light - {"simulator"})
+    placeholders = {path.split("/")[1] for path in referenced_schemas()}
+    cfg = _compose(overrides, placeholders - light - {"simulator"})
     for warning in ignored_options(cfg, overrides):
         print(f"grace: warning: {warning}", file=sys.stderr)
     check_config(cfg)
