@@ -1,5 +1,11 @@
 """Entry point: `python -m grace task=<name> ...` (or `grace ...`) composes the config and runs one
-task. The configs ship inside the package (grace/conf), so this works from any folder."""
+task. The configs ship inside the package (grace/conf), so this works from any folder.
+
+The command line is checked first (grace/tasks/preflight.py): a user error is one line on
+stderr and exit code 2, before Hydra creates the run folder. Ctrl-C and SIGTERM stop the run
+and its worker processes (grace/tasks/signals.py); the same command with
+`paths.output_dir=<the run folder>` resumes it.
+"""
 
 import sys
 
@@ -7,21 +13,36 @@ import hydra
 from omegaconf import DictConfig
 
 from grace import CONF_DIR
-from grace.errors import UserError
-from grace.tasks.runner import run_task
-from grace.tasks.schemas import register_schemas
-
-register_schemas()
+from grace.tasks.preflight import debugging, preflight, run_dir_overrides, user_errors
+from grace.tasks.signals import EXIT_INTERRUPTED, sigterm_as_interrupt
 
 
 # An absolute path: found whether this module runs as __main__ or from the console script.
 @hydra.main(version_base="1.3", config_path=str(CONF_DIR), config_name="config")
-def main(cfg: DictConfig) -> float | None:
+def run(cfg: DictConfig) -> float | None:
+    """One Hydra job: the task of `cfg` (a user error: one line, exit 2)."""
     try:
-        return run_task(cfg)
-    except UserError as e:  # the message is the whole report (grace/errors.py)
-        print(f"error: {e}", file=sys.stderr)
-        sys.exit(1)
+        from grace.tasks.runner import run_task  # torch and Lightning: after the checks
+
+        with user_errors(debugging(sys.argv[1:]) or bool(cfg.debug)):
+            return run_task(cfg)
+    except KeyboardInterrupt:
+        out = cfg.paths.output_dir
+        print(f"grace: interrupted; to resume: the same command with paths.output_dir={out}")
+        sys.exit(EXIT_INTERRUPTED)
+
+
+def main() -> None:
+    """Check the command line, then let Hydra run it."""
+    sigterm_as_interrupt()
+    try:
+        with user_errors(debugging(sys.argv[1:])):
+            preflight(sys.argv[1:])
+            sys.argv += run_dir_overrides(sys.argv[1:])
+    except KeyboardInterrupt:
+        print("grace: interrupted before the run started; nothing was written", file=sys.stderr)
+        sys.exit(EXIT_INTERRUPTED)
+    run()
 
 
 if __name__ == "__main__":

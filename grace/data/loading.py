@@ -13,6 +13,7 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
+from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -41,18 +42,26 @@ def _raw_key(folders: list[Path]) -> str:
     return digest.hexdigest()[:16]
 
 
+def _cache_folder(folders: list[Path], cache: str | Path) -> Path:
+    return Path(cache).absolute() / f"raw-{_raw_key(folders)}"
+
+
+def _read_cache(target: Path) -> list[LabelledAssembly]:
+    sizes = json.loads((target / "manifest.json").read_text())["sizes"]
+    return [
+        s
+        for size in sorted(int(k) for k in sizes)
+        for s in read_shard(target / f"A{size}{SHARD_SUFFIX}")
+    ]
+
+
 def import_raw_tree(root: str | Path, cache: str | Path) -> list[LabelledAssembly]:
     """All raw assemblies under `root`, imported once and cached under `cache/raw-<key>/`."""
     folders = find_raw_folders(root)
-    target = Path(cache).absolute() / f"raw-{_raw_key(folders)}"
+    target = _cache_folder(folders, cache)
     manifest = target / "manifest.json"
     if manifest.exists():
-        sizes = json.loads(manifest.read_text())["sizes"]
-        return [
-            s
-            for size in sorted(int(k) for k in sizes)
-            for s in read_shard(target / f"A{size}{SHARD_SUFFIX}")
-        ]
+        return _read_cache(target)
     samples = import_raw_folders(folders, root)  # raises before anything is written
     by_size: dict[int, list[LabelledAssembly]] = {}
     for sample in samples:
@@ -65,6 +74,16 @@ def import_raw_tree(root: str | Path, cache: str | Path) -> list[LabelledAssembl
     )
     log.info("imported %d raw assemblies from %s into %s", len(samples), root, target)
     return [s for size in sorted(by_size) for s in by_size[size]]
+
+
+def read_raw_tree(root: str | Path, cache: str | Path) -> list[LabelledAssembly]:
+    """All raw assemblies under `root`: from the cache if imported before, else parsed (every
+    folder checked) without writing anything."""
+    folders = find_raw_folders(root)
+    target = _cache_folder(folders, cache)
+    if (target / "manifest.json").exists():
+        return _read_cache(target)
+    return sorted(import_raw_folders(folders, root), key=lambda s: s.size)
 
 
 def select_sizes(
@@ -94,8 +113,18 @@ class RawSource:
 
     def load(self) -> list[LabelledAssembly]:
         """The selected assemblies (see the module docstring)."""
+        self._check_path()
+        return select_sizes(import_raw_tree(self.path, self.data_dir), self.sizes)
+
+    def _check_path(self) -> None:
         if not self.path:
             raise UserError(
                 "dataset=raw needs dataset.path; fix: add dataset.path=/folder/of/assembly/folders"
             )
-        return select_sizes(import_raw_tree(self.path, self.data_dir), self.sizes)
+
+    def counts(self) -> dict[int, int]:
+        """Assemblies per size that :meth:`load` returns, found without writing anything (a
+        first run parses the folders twice: here, to check them, and in :meth:`load`)."""
+        self._check_path()
+        selected = select_sizes(read_raw_tree(self.path, self.data_dir), self.sizes)
+        return dict(sorted(Counter(sample.size for sample in selected).items()))

@@ -21,6 +21,8 @@ import hashlib
 import json
 import logging
 import multiprocessing as mp
+import os
+import signal
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -81,11 +83,22 @@ class Generation:
 
 def requested_sizes(sizes: Mapping[Any, Any] | None) -> dict[int, int]:
     """`dataset.sizes` as {size: count}, sizes ascending (YAML or CLI keys may be strings)."""
+    if sizes and not isinstance(sizes, Mapping):
+        raise UserError(
+            f"dataset.sizes={sizes!r} is not a mapping size → count; "
+            "fix: e.g. dataset.sizes={3: 8, 4: 8} (quoted for the shell)"
+        )
     if not sizes:
         raise UserError(
             "dataset.sizes is empty; fix: set it (e.g. scale=smoke) to a mapping size → count"
         )
-    out = {int(k): int(v) for k, v in sizes.items()}
+    try:
+        out = {int(k): int(v) for k, v in sizes.items()}
+    except (TypeError, ValueError):
+        raise UserError(
+            f"dataset.sizes={dict(sizes)} is not a mapping of integers; "
+            'fix: e.g. dataset.sizes="{3: 8, 4: 8}"'
+        ) from None
     bad = {k: v for k, v in out.items() if k < 1 or v < 0}
     if bad:
         raise UserError(f"dataset.sizes has invalid entries {bad}; fix: sizes ≥ 1 and counts ≥ 0")
@@ -132,11 +145,13 @@ def _write_chunk(
 ) -> int:
     samples, seconds = [], []
     for index in range(chunk.start, chunk.stop):
+        _stop_if_orphaned()
         sample, s = _sample(simulator, seed, chunk.size, index)
         samples.append(sample)
         seconds.append(s)
         if progress is not None:
             progress.update(1)
+    _stop_if_orphaned()
     # Sidecar first: a chunk file on disk always has its timings.
     write_text_atomic(chunk.seconds_path(root), json.dumps({"seconds": seconds}))
     write_shard(chunk.path(root), samples)
@@ -144,6 +159,14 @@ def _write_chunk(
 
 
 _worker_simulator: Any = None
+_worker_parent: int | None = None
+
+
+def _stop_if_orphaned() -> None:
+    """In a generation worker whose parent died (even by SIGKILL, which it cannot pass on):
+    exit before writing anything more."""
+    if _worker_parent is not None and os.getppid() != _worker_parent:
+        os._exit(1)
 
 
 def build_simulator(simulator_cfg: Mapping[str, Any]) -> Any:
@@ -151,8 +174,13 @@ def build_simulator(simulator_cfg: Mapping[str, Any]) -> Any:
     return instantiate(OmegaConf.create(dict(simulator_cfg)))
 
 
-def _init_worker(simulator_cfg: dict[str, Any]) -> None:
-    global _worker_simulator
+def _init_worker(simulator_cfg: dict[str, Any], parent: int) -> None:
+    global _worker_simulator, _worker_parent
+    # The parent stops the pool on Ctrl-C or SIGTERM (Pool.terminate sends SIGTERM): workers
+    # ignore the terminal's SIGINT and die on SIGTERM whatever handler they inherited.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    _worker_parent = parent
     _worker_simulator = build_simulator(simulator_cfg)
 
 
@@ -164,16 +192,21 @@ def _worker_chunk(args: tuple[int, Chunk, Path]) -> int:
 def _run(
     pending: list[Chunk], simulator_cfg: dict[str, Any], seed: int, root: Path, workers: int
 ) -> int:
+    # Built here first, so a bad simulator config fails once, in this process (a pool would
+    # restart workers whose initializer fails, forever).
+    simulator = build_simulator(simulator_cfg)
     total = sum(c.stop - c.start for c in pending)
     with tqdm(total=total, desc=f"generate {root.name}", unit="asm", dynamic_ncols=True) as bar:
         if workers <= 1 or len(pending) <= 1:
-            simulator = build_simulator(simulator_cfg)
             return sum(_write_chunk(simulator, seed, c, root, bar) for c in pending)
         ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
         done = 0
         # Largest assemblies first, so no long chunk is left running alone at the end.
         jobs = [(seed, c, root) for c in sorted(pending, key=lambda c: -c.size)]
-        with ctx.Pool(min(workers, len(pending)), _init_worker, (simulator_cfg,)) as pool:
+        init = (simulator_cfg, os.getpid())
+        # Leaving the block for any reason (an error, Ctrl-C, SIGTERM) terminates the workers;
+        # chunks are written atomically, so none is left half-written.
+        with ctx.Pool(min(workers, len(pending)), _init_worker, init) as pool:
             for n in pool.imap_unordered(_worker_chunk, jobs):
                 bar.update(n)
                 done += n
@@ -215,6 +248,10 @@ class GeneratedSource:
         text = json.dumps(self.key_config(), sort_keys=True, separators=(",", ":"))
         key = hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
         return Path(self.data_dir).absolute() / f"generated-{key}"
+
+    def counts(self) -> dict[int, int]:
+        """Assemblies per size that :meth:`load` returns, known before any is generated."""
+        return {size: n for size, n in requested_sizes(self.sizes).items() if n > 0}
 
     def generate(self, shard: int | None = None, num_shards: int | None = None) -> Generation:
         """Generate this run's share of the missing chunks.

@@ -13,8 +13,24 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from omegaconf import MISSING
 
 from grace.domain.sample import LabelledAssembly
+from grace.errors import UserError
+
+
+@dataclass
+class ProtocolSettings:
+    """Schema of the `protocol` group (docs/protocols.md); sizes None = all in the data set."""
+
+    name: str = MISSING
+    folds: int = MISSING
+    val_fraction: float = MISSING
+    seed: int = MISSING
+    train_sizes: list[int] | None = MISSING
+    test_sizes: list[int] | None = MISSING
+    train_exclude: list[int] = MISSING
+    test_exclude: list[int] = MISSING
 
 
 @dataclass(frozen=True)
@@ -43,14 +59,14 @@ def protocol_sizes(
     test = sorted(set(available if test_sizes is None else test_sizes) - set(test_exclude))
     missing = sorted((set(train) | set(test)) - set(available))
     if missing:
-        raise ValueError(
+        raise UserError(
             f"protocol {name}: sizes {missing} are not in the data set (sizes {available}); "
-            "set protocol.train_sizes/test_sizes (or train_size/test_size) to sizes it holds"
+            "fix: set protocol.train_sizes/test_sizes (or train_size/test_size) to sizes it holds"
         )
     if not train or not test:
-        raise ValueError(
+        raise UserError(
             f"protocol {name}: no {'train' if not train else 'test'} size left of {available}; "
-            "check protocol.train_sizes/test_sizes and train_size/test_size"
+            "fix: check protocol.train_sizes/test_sizes and train_size/test_size"
         )
     return train, test
 
@@ -64,10 +80,7 @@ def make_folds(
     seed: int,
 ) -> list[Fold]:
     """Size-stratified k-fold split over assemblies (`sizes[i]` = size of assembly i)."""
-    if folds < 2:
-        raise ValueError(f"protocol.folds = {folds}: cross-validation needs at least 2 folds")
-    if not 0.0 <= val_fraction < 1.0:
-        raise ValueError(f"protocol.val_fraction = {val_fraction}: use a fraction in [0, 1)")
+    check_split(folds, val_fraction)
     rng = np.random.default_rng(seed)
     sizes = np.asarray(sizes)
     fold_of = np.empty(len(sizes), dtype=np.int64)
@@ -88,6 +101,65 @@ def make_folds(
             )
         )
     return out
+
+
+def check_split(folds: int, val_fraction: float) -> None:
+    """Raise a UserError unless `folds` and `val_fraction` make a cross-validation."""
+    if folds < 2:
+        raise UserError(f"protocol.folds={folds}: cross-validation needs at least 2 folds")
+    if not 0.0 <= val_fraction < 1.0:
+        raise UserError(f"protocol.val_fraction={val_fraction}: use a fraction in [0, 1)")
+
+
+def check_fold_sizes(
+    name: str,
+    counts: dict[int, int],
+    train_sizes: Sequence[int],
+    test_sizes: Sequence[int],
+    folds: int,
+    val_fraction: float,
+) -> None:
+    """Raise a UserError if a fold of :func:`make_folds` would have no test or no training
+    assembly, from the number of assemblies per size alone (before any is made or loaded).
+
+    make_folds deals each size's assemblies round-robin, so fold f holds
+    `n // folds + (f < n % folds)` of a size with n assemblies.
+    """
+    check_split(folds, val_fraction)
+    empty = _empty_fold(counts, train_sizes, test_sizes, folds, val_fraction)
+    if empty is None:
+        return
+    f, test, train = empty
+    fits = [
+        k
+        for k in range(folds - 1, 1, -1)
+        if not _empty_fold(counts, train_sizes, test_sizes, k, val_fraction)
+    ]
+    fix = f"protocol.folds={fits[0]}" if fits else "a larger data set (dataset.sizes or scale)"
+    held = {s: counts.get(s, 0) for s in sorted(set(train_sizes) | set(test_sizes))}
+    raise UserError(
+        f"protocol {name}: protocol.folds={folds} leaves fold {f} with {test} test and {train} "
+        f"training assemblies (assemblies per size {held}, test sizes {sorted(test_sizes)}, "
+        f"each size dealt round-robin to the folds); fix: {fix}"
+    )
+
+
+def _empty_fold(
+    counts: dict[int, int],
+    train_sizes: Sequence[int],
+    test_sizes: Sequence[int],
+    folds: int,
+    val_fraction: float,
+) -> tuple[int, int, int] | None:
+    """The first fold without test or training assemblies, with those numbers, or None."""
+    for f in range(folds):
+        held = {size: n // folds + (f < n % folds) for size, n in counts.items()}
+        test = sum(held[s] for s in test_sizes if s in held)
+        fit = [counts[s] - held[s] for s in train_sizes if s in counts]
+        train = sum(n - round(val_fraction * n) for n in fit)
+        if not test or not train:
+            return f, test, train
+    return None
 
 
 def _validation(

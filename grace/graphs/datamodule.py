@@ -22,6 +22,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from enum import StrEnum
+from typing import Any
 
 import lightning.pytorch as pl
 import numpy as np
@@ -248,9 +249,25 @@ class StateDataModule(pl.LightningDataModule):
         chunk = batch_size if Mixing(mixing) is Mixing.assembly else 1
         self.train_set = StateDataset(train, enc, states, chunk, True, seed)
         self.val_set = StateDataset(val, enc, states, batch_size, False, seed)
+        self._start_epoch = 0
+        self._sampler: AssemblyBatchSampler | None = None
 
     def train_dataloader(self) -> DataLoader:
-        return make_loader(self.train_set, self.collate, self.batch_size, True, self.seed)
+        loader = make_loader(self.train_set, self.collate, self.batch_size, True, self.seed)
+        self._sampler = loader.batch_sampler
+        self._sampler.epoch = self._start_epoch
+        return loader
+
+    def state_dict(self) -> dict[str, Any]:
+        """Saved in every checkpoint: the epochs shuffled so far and the generator of randomised
+        training encodings, so a fit resumed from a checkpoint draws what an uninterrupted one
+        would."""
+        epoch = self._sampler.epoch if self._sampler is not None else self._start_epoch
+        return {"epoch": epoch, "encoding_rng": self.train_set.rng.bit_generator.state}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self._start_epoch = int(state["epoch"])
+        self.train_set.rng.bit_generator.state = state["encoding_rng"]
 
     def val_dataloader(self) -> DataLoader:
         return make_loader(self.val_set, self.collate, self.batch_size, False, self.seed)

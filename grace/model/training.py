@@ -13,15 +13,20 @@ log = logging.getLogger(__name__)
 
 
 def fit(
-    module: GraceModule, datamodule: pl.LightningDataModule, trainer: pl.Trainer
+    module: GraceModule,
+    datamodule: pl.LightningDataModule,
+    trainer: pl.Trainer,
+    ckpt_path: str | None = None,
 ) -> GraceModule:
     """Train `module` on `datamodule` with `trainer`; return it with the best checkpoint's weights.
 
     The trainer's callbacks decide when to stop and what "best" is (early stopping and the model
     checkpoint, both on the configured monitor). Without a checkpoint callback, or before its
-    first save, the module keeps its last weights. Returned in eval mode.
+    first save, the module keeps its last weights. Returned in eval mode. `ckpt_path` resumes an
+    interrupted fit from its last checkpoint (grace/model/resume.py).
     """
-    trainer.fit(module, datamodule=datamodule)
+    # Our own file from the interrupted run: the full pickle (optimiser, generators) is trusted.
+    trainer.fit(module, datamodule=datamodule, ckpt_path=ckpt_path, weights_only=False)
     checkpoint = trainer.checkpoint_callback
     best = getattr(checkpoint, "best_model_path", "")
     if best:

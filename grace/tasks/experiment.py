@@ -21,7 +21,6 @@ from typing import Any
 
 import numpy as np
 import torch
-from hydra.core.hydra_config import HydraConfig
 from hydra.utils import instantiate
 from joblib import Parallel, delayed
 from lightning.pytorch import seed_everything
@@ -39,7 +38,7 @@ from grace.evaluation.report import aggregate, write_results
 from grace.planning.sequences import Scorer
 from grace.tasks.logs import log_to_file
 from grace.tasks.progress import ExperimentProgress, FoldReporter
-from grace.tasks.runner import TaskSettings
+from grace.tasks.runner import TaskSettings, task_overrides
 from grace.visualisation.analysis import draw_analysis
 from grace.visualisation.plots import p_at_k_bars, pr_curves
 from grace.visualisation.recording import write_recording
@@ -60,24 +59,6 @@ class ExperimentSettings(TaskSettings):
     train_feasible_only: bool = MISSING  # train on feasible assemblies only (training_subset)
     fold_jobs: int = MISSING
     recording: RecordingSettings = field(default_factory=RecordingSettings)  # sequences.rrd
-
-
-@dataclass
-class ProtocolSettings:
-    """Schema of the `protocol` group (docs/protocols.md); sizes None = all in the data set."""
-
-    name: str = MISSING
-    folds: int = MISSING
-    val_fraction: float = MISSING
-    seed: int = MISSING
-    train_sizes: list[int] | None = MISSING
-    test_sizes: list[int] | None = MISSING
-    train_exclude: list[int] = MISSING
-    test_exclude: list[int] = MISSING
-
-
-def _overrides() -> list[str]:
-    return list(HydraConfig.get().overrides.task) if HydraConfig.initialized() else []
 
 
 def _mean_curves(per_fold: list[dict[int, dict]]) -> dict[str, dict]:
@@ -255,7 +236,7 @@ def run(cfg: DictConfig) -> float:
         "run": {
             "model": OmegaConf.select(cfg, "model.name"),
             "seed": cfg.seed,
-            "overrides": _overrides(),
+            "overrides": task_overrides(),
         },
     }
     write_results(results, out_dir)

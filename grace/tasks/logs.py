@@ -18,6 +18,15 @@ THIRD_PARTY = ("lightning", "lightning.pytorch", "lightning.fabric", "pytorch_li
 """Loggers whose messages are for the log file, not the terminal."""
 
 
+class FolderFileHandler(logging.FileHandler):
+    """A FileHandler that creates its file's folder: Hydra's job log is `paths.log_file`, which
+    lies in `paths.output_dir`, a folder Hydra does not create when the user sets it."""
+
+    def __init__(self, filename: str | Path, *args: object, **kwargs: object) -> None:
+        Path(filename).parent.mkdir(parents=True, exist_ok=True)
+        super().__init__(filename, *args, **kwargs)
+
+
 def _file_handler(log_file: str | Path, fmt: str) -> logging.Handler:
     Path(log_file).parent.mkdir(parents=True, exist_ok=True)
     handler = logging.FileHandler(log_file)

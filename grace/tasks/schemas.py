@@ -27,28 +27,13 @@ from pathlib import Path
 from typing import Any
 
 from hydra.core.config_store import ConfigStore
-from lightning.pytorch import Trainer
-from lightning.pytorch.callbacks import EarlyStopping, ModelCheckpoint
-from lightning.pytorch.loggers import CSVLogger, TensorBoardLogger
-from omegaconf import MISSING
+from omegaconf import MISSING, OmegaConf
 
+from grace import CONF_DIR
 from grace.data.loading import RawSource
 from grace.data.store import GeneratedSource
-from grace.graphs.datamodule import StateDataModule
-from grace.graphs.encoding import GraphEncoding
-from grace.model.grace_pyg import NetConfig
-from grace.model.module import GraceModule
+from grace.evaluation.protocols import ProtocolSettings
 from grace.simulation.cell_config import register as register_simulator_schemas
-from grace.tasks.bench import BenchSettings
-from grace.tasks.experiment import ExperimentSettings, ProtocolSettings
-from grace.tasks.feasibility import FeasibilitySettings
-from grace.tasks.gather import GatherSettings
-from grace.tasks.generate import GenerateSettings
-from grace.tasks.plan import PlanSettings
-from grace.tasks.replay import ReplaySettings
-from grace.tasks.train import TrainSettings
-from grace.tasks.tune import TuneSettings
-from grace.tasks.tune_space import TuneConfig
 
 _SCALARS = (int, float, bool, str, bytes, Path)
 
@@ -171,6 +156,7 @@ class RootConfig:
 
     seed: int = 0
     threads: int = 2
+    debug: bool = False
     train_size: int = 5
     test_size: int = 5
     ckpt: str | None = None
@@ -192,12 +178,41 @@ class RootConfig:
     tune: Any = None
 
 
-def register_schemas() -> None:
-    """Store the root schema as `grace_schema` and each group's as `schema/<group>`."""
-    register_simulator_schemas()
-    store = ConfigStore.instance()
-    store.store(name="grace_schema", node=RootConfig)
-    groups = {
+def light_schemas() -> dict[str, type]:
+    """The schemas whose modules import neither torch nor Lightning: enough to check a command
+    line in a second, before the heavy libraries load (grace/tasks/preflight.py)."""
+    return {
+        "dataset/generated": schema(
+            GeneratedSource, meta={"_recursive_": False, "_convert_": "all"}
+        ),
+        "dataset/raw": schema(RawSource),
+        "protocol": ProtocolSettings,
+    }
+
+
+def heavy_schemas() -> dict[str, type]:
+    """The schemas of components built on torch and Lightning (their modules take seconds to
+    import, hence imported here, on demand)."""
+    from lightning.pytorch import Trainer
+    from lightning.pytorch.callbacks import EarlyStopping, ModelCheckpoint
+    from lightning.pytorch.loggers import CSVLogger, TensorBoardLogger
+
+    from grace.graphs.datamodule import StateDataModule
+    from grace.graphs.encoding import GraphEncoding
+    from grace.model.grace_pyg import NetConfig
+    from grace.model.module import GraceModule
+    from grace.tasks.bench import BenchSettings
+    from grace.tasks.experiment import ExperimentSettings
+    from grace.tasks.feasibility import FeasibilitySettings
+    from grace.tasks.gather import GatherSettings
+    from grace.tasks.generate import GenerateSettings
+    from grace.tasks.plan import PlanSettings
+    from grace.tasks.replay import ReplaySettings
+    from grace.tasks.train import TrainSettings
+    from grace.tasks.tune import TuneSettings
+    from grace.tasks.tune_space import TuneConfig
+
+    return {
         "model": schema(
             GraceModule,
             nested={"net": schema(NetConfig), "graph": schema(GraphEncoding)},
@@ -210,11 +225,6 @@ def register_schemas() -> None:
         "callbacks/model_checkpoint": schema(ModelCheckpoint),
         "logger/csv": schema(CSVLogger),
         "logger/tensorboard": schema(TensorBoardLogger),
-        "dataset/generated": schema(
-            GeneratedSource, meta={"_recursive_": False, "_convert_": "all"}
-        ),
-        "dataset/raw": schema(RawSource),
-        "protocol": ProtocolSettings,
         "task/experiment": ExperimentSettings,
         "task/train": TrainSettings,
         "task/generate": GenerateSettings,
@@ -226,6 +236,42 @@ def register_schemas() -> None:
         "task/tune": TuneSettings,
         "tune": TuneConfig,
     }
+
+
+def referenced_schemas(conf_dir: Path = CONF_DIR) -> set[str]:
+    """Every `schema/<group>` path that a YAML file of the config tree lists in its defaults."""
+    found = set()
+    for path in conf_dir.rglob("*.yaml"):
+        for entry in OmegaConf.load(path).get("defaults", None) or []:
+            text = entry if isinstance(entry, str) else next(iter(entry), "")
+            if isinstance(text, str) and text.startswith("/schema/"):
+                found.add(text.removeprefix("/").split("@")[0])
+    return found
+
+
+def _stored(store: ConfigStore, path: str) -> bool:
+    *groups, name = path.split("/")
+    node = store.repo
+    for group in groups:
+        node = node.get(group, {})
+    return f"{name}.yaml" in node
+
+
+def register_schemas(light: bool = False) -> None:
+    """Store the root schema as `grace_schema` and each group's as `schema/<group>`.
+
+    `light=True` stores the light schemas only, and an open placeholder (any keys, no types) for
+    every other schema the configs refer to, so the config composes without torch or Lightning.
+    """
+    register_simulator_schemas()
+    store = ConfigStore.instance()
+    store.store(name="grace_schema", node=RootConfig)
+    groups: dict[str, Any] = light_schemas()
+    if light:
+        open_paths = {p for p in referenced_schemas() if not _stored(store, p)}
+        groups = {path.removeprefix("schema/"): {} for path in open_paths} | groups
+    else:
+        groups |= heavy_schemas()
     for path, node in groups.items():
         group, _, name = f"schema/{path}".rpartition("/")
         store.store(group=group, name=name, node=node)

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import lightning.pytorch as pl
 from hydra.utils import instantiate
+from lightning.pytorch.callbacks import ModelCheckpoint
 from omegaconf import DictConfig, OmegaConf, open_dict
 
 from grace.data.atomic import write_text_atomic
@@ -76,10 +77,52 @@ def train_module(
     datamodule = instantiate(cfg.datamodule)(
         train=train, val=val, enc=module.enc, collate=module.impl.collate
     )
+    configured = instantiate_named(cfg.callbacks)
     trainer = instantiate(
         cfg.trainer,
-        callbacks=[*instantiate_named(cfg.callbacks), *callbacks],
+        callbacks=[*configured, *callbacks],
         logger=instantiate_named(cfg.logger),
         **({} if val else {"limit_val_batches": 0}),
     )
-    return fit(module, datamodule, trainer)
+    return fit(module, datamodule, trainer, ckpt_path=resume_from(cfg, out_dir, configured))
+
+
+RUN_ONLY = (
+    *("paths", "threads", "debug", "task.fold_jobs", "trainer.enable_progress_bar"),
+    *("dataset.workers", "dataset.data_dir"),
+)
+"""Keys that change where or how fast a run goes, never its results: a rerun may change them."""
+
+
+def resume_from(cfg: DictConfig, out_dir: str | Path, callbacks: Sequence[object]) -> str | None:
+    """The `last.ckpt` that a killed run of this config left in `out_dir`, or None (then this
+    run's config is recorded in `out_dir/fit_config.yaml`, to recognise it on a rerun).
+
+    A last checkpoint written under another config is a UserError: resuming it would mix two
+    experiments.
+    """
+    saving = [c for c in callbacks if isinstance(c, ModelCheckpoint) and c.save_last]
+    if not saving or saving[0].dirpath is None:
+        return None
+    checkpoint = saving[0]
+    last = (
+        Path(checkpoint.dirpath) / f"{checkpoint.CHECKPOINT_NAME_LAST}{checkpoint.FILE_EXTENSION}"
+    )
+    kept = OmegaConf.to_container(cfg, resolve=True)
+    for key in RUN_ONLY:
+        *parents, name = key.split(".")
+        node = kept
+        for parent in parents:
+            node = node.get(parent) or {}
+        node.pop(name, None)
+    text = OmegaConf.to_yaml(OmegaConf.create(kept))
+    record = Path(out_dir) / "fit_config.yaml"
+    if not last.exists():
+        write_text_atomic(record, text)
+        return None
+    if record.exists() and record.read_text() != text:
+        raise UserError(
+            f"{last} was written by a run of another config ({record}); fix: the same "
+            f"overrides as that run, or a new paths.output_dir, or delete {Path(out_dir)}"
+        )
+    return str(last)

@@ -31,8 +31,8 @@ from optuna_integration import PyTorchLightningPruningCallback
 
 from grace.domain.sample import LabelledAssembly
 from grace.errors import UserError
-from grace.tasks.experiment import _folds, _overrides
-from grace.tasks.runner import TaskSettings
+from grace.tasks.experiment import _folds
+from grace.tasks.runner import TaskSettings, task_overrides
 from grace.tasks.tune_report import write_report
 from grace.tasks.tune_space import Param, parse_space, suggest, trial_config
 
@@ -160,6 +160,6 @@ def run(cfg: DictConfig) -> float:
     )
     objective = _objective(cfg, params, out_dir, prune=cfg.tune.pruner is not None)
     study.optimize(objective, n_trials=cfg.tune.n_trials, timeout=cfg.tune.timeout)
-    report = write_report(study, cfg, out_dir, storage, _overrides())
+    report = write_report(study, cfg, out_dir, storage, task_overrides())
     log.info("%s", report.message)
     return report.best_value if report.best_value is not None else math.nan

@@ -157,3 +157,13 @@ def test_records_are_lossless(fake_cfg):
 def test_bad_sizes_are_one_clear_error(fake_cfg):
     with pytest.raises(UserError, match=r"dataset\.sizes"):
         generate(fake_cfg(sizes="{3: -1}"))
+
+
+def test_a_bad_simulator_config_fails_once_in_the_parent(fake_cfg, tmp_path):
+    """Built in the parent first: a pool whose worker initializer fails would restart it forever."""
+    cfg = fake_cfg(f"paths.data_dir={tmp_path}", "dataset.workers=2")
+    with open_dict(cfg):
+        cfg.simulator = {"_target_": "grace_tests_conftest.FakeSimulator", "width": 3.0}
+    with pytest.raises(Exception, match="width"):
+        generate(cfg)
+    assert not list(tmp_path.rglob("*.gz"))

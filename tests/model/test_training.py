@@ -79,3 +79,21 @@ def test_lr_decay_watches_the_early_stopping_monitor(cfg_factory):
     assert config["lr_scheduler"]["monitor"] == "val_step_auc"
     assert decay.mode == "max" and decay.factor == 0.25
     assert instantiate(cfg.callbacks.early_stopping).monitor == "val_step_auc"
+
+
+def test_a_fit_without_validation_watches_the_training_loss(cfg_factory, samples, tmp_path):
+    """No validation assemblies: early stopping and the best checkpoint watch train_loss (the
+    monitor wiring of grace/tasks/training.py); the best checkpoint is the lowest train_loss."""
+    cfg = cfg_factory(
+        "trainer.max_epochs=3",
+        "trainer.enable_progress_bar=false",
+        "model.net.hidden=8",
+        "model.net.surface_blocks=1",
+    )
+    module = train_module(cfg, samples, [], tmp_path / "run")
+    assert isinstance(module, GraceModule)
+    best = torch.load(tmp_path / "run" / "checkpoints" / "best.ckpt", weights_only=False)
+    rows = _epochs(next((tmp_path / "run" / "logs").glob("version_*/metrics.csv")))
+    losses = [float(r["train_loss"]) for r in rows]
+    assert len(losses) == 3 and "val_loss" not in {k for r in rows for k, v in r.items() if v}
+    assert best["epoch"] == int(np.argmin(losses))

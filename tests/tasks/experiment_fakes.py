@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import torch
 
 from grace.domain.assembly import Assembly, Part, PartType, planar_pose
 from grace.domain.orders import GroundTruth
@@ -11,6 +12,7 @@ from grace.planning.counting import label_table
 
 TRUTH: dict[str, GroundTruth] = {}  # by assembly name; rebuilt on demand in worker processes
 FITS: list[tuple[int, int]] = []  # fits of this process (fold_jobs=1)
+SEEDS: list[int] = []  # torch's seed when each fit began
 
 
 class PuzzleSource:
@@ -44,6 +46,7 @@ def _puzzles(seed: int) -> list[LabelledAssembly]:
 
 def fit(cfg, train, val, out_dir, callbacks=()):
     FITS.append((len(train), len(val)))
+    SEEDS.append(torch.initial_seed())
     return 0.1  # the noise level of the fake policy
 
 

@@ -132,5 +132,5 @@ def test_the_command_prints_one_line_and_exits_non_zero(tmp_path):
         capture_output=True, text=True, check=False,
     )  # fmt: skip
     assert result.returncode != 0
-    errors = [line for line in result.stderr.splitlines() if line.startswith("error:")]
+    errors = [line for line in result.stderr.splitlines() if line.startswith("grace: error:")]
     assert len(errors) == 1 and "ckpt=" in errors[0] and "Traceback" not in result.stderr
