@@ -25,7 +25,7 @@ padded per-assembly tensors (:func:`collate_dense`).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 
@@ -228,6 +228,15 @@ class StateDataset:
                 rng = np.random.default_rng([seed, i]) if enc.randomised else None
                 self._fixed[i] = encode_assembly(sample.assembly, enc, training, rng)
 
+    def extend(self, extra: Mapping[int, tuple[np.ndarray, np.ndarray]], chunk_size: int) -> None:
+        """Add (states, label masks) for samples by index (the states a planner visited, see
+        grace/tasks/dagger.py); they weigh 1 also under step balancing."""
+        for i, (s, y) in extra.items():
+            for lo in range(0, len(s), chunk_size):
+                self.chunks.append((i, s[lo : lo + chunk_size], y[lo : lo + chunk_size]))
+                if self.weights is not None:
+                    self.weights.append(np.ones(len(s[lo : lo + chunk_size]), dtype=np.float32))
+
     def __len__(self) -> int:
         return len(self.chunks)
 
@@ -292,6 +301,7 @@ class StateDataModule(pl.LightningDataModule):
         super().__init__()
         self.collate, self.batch_size, self.seed = collate, batch_size, seed
         chunk = batch_size if Mixing(mixing) is Mixing.assembly else 1
+        self.chunk_size = chunk
         self.train_set = StateDataset(train, enc, states, chunk, True, seed, balance_steps)
         self.val_set = StateDataset(val, enc, states, batch_size, False, seed)
 

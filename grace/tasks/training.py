@@ -8,10 +8,11 @@ loggers, `cfg.trainer` the Lightning Trainer. grace.model.training.fit gets the 
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import lightning.pytorch as pl
+import numpy as np
 from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf, open_dict
 
@@ -46,10 +47,12 @@ def train_module(
     val: Sequence[LabelledAssembly],
     out_dir: str | Path,
     callbacks: Sequence[pl.Callback] = (),
+    extra_states: Mapping[int, tuple[np.ndarray, np.ndarray]] | None = None,
 ) -> GraceModule:
     """A module trained on `train`, early-stopped on `val`, with its best checkpoint's weights.
 
     Checkpoints and logs go under `out_dir`; `callbacks` are added to the configured ones.
+    `extra_states` adds (states, label masks) to `train[i]` by index (grace/tasks/dagger.py).
     """
     if not train:
         raise UserError(
@@ -60,6 +63,8 @@ def train_module(
     datamodule = instantiate(cfg.datamodule)(
         train=train, val=val, enc=module.enc, collate=module.impl.collate
     )
+    if extra_states:
+        datamodule.train_set.extend(extra_states, datamodule.chunk_size)
     trainer = instantiate(
         cfg.trainer,
         callbacks=[*instantiate_named(cfg.callbacks), *callbacks],
