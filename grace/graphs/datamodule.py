@@ -8,6 +8,12 @@ labels, which is what lets "no complete sequence found" predict infeasibility. `
 adds every state the placement checks reach, dead ends included (all labels 0 there), which asks
 the network to look ahead. The final state (all parts placed) is no decision and is left out.
 
+`balance_steps=True` (not in the paper; its suggested remedy for early-step failures, Sec. V-C)
+weights each training state's loss by the inverse frequency of its step index (the number of
+placed parts) among the training states of assemblies of its size, so that every step of a size
+carries the same total weight: the one empty state per assembly otherwise counts as little as one
+of the many mid-sequence states. Weights have mean 1 per size; validation stays unweighted.
+
 With `mixing="assembly"` (default) batches hold about `batch_size` states drawn from whole
 assemblies (large ones split into chunks), so that the fast path computes each surface embedding
 once per batch. `mixing="state"` draws states independently, as the reference's shuffled
@@ -19,7 +25,7 @@ padded per-assembly tensors (:func:`collate_dense`).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 from typing import Any
@@ -65,6 +71,28 @@ def _reachable_states(truth: GroundTruth) -> tuple[np.ndarray, np.ndarray]:
 _STATE_SETS = {StateSet.orders: _order_states, StateSet.reachable: _reachable_states}
 
 
+def step_weights(
+    samples: Sequence[LabelledAssembly], states: Sequence[np.ndarray]
+) -> list[np.ndarray]:
+    """Per-state loss weights balancing step indices within each size (`balance_steps`).
+
+    A state of step t in an N-part assembly weighs (states of size N) / (steps of size N seen ·
+    states of size N at step t): each step's total is equal and the mean per size is 1.
+    """
+    steps = [np.bitwise_count(np.asarray(s, dtype=np.int64)) for s in states]
+    sizes = [sample.assembly.n_parts for sample in samples]
+    counts: dict[tuple[int, int], int] = {}
+    for n, t in zip(sizes, steps, strict=True):
+        for step, c in zip(*np.unique(t, return_counts=True), strict=True):
+            counts[n, int(step)] = counts.get((n, int(step)), 0) + int(c)
+    total = {n: sum(c for (m, _), c in counts.items() if m == n) for n in set(sizes)}
+    seen = {n: sum(1 for (m, _) in counts if m == n) for n in set(sizes)}
+    return [
+        np.array([total[n] / (seen[n] * counts[n, int(step)]) for step in t], dtype=np.float32)
+        for n, t in zip(sizes, steps, strict=True)
+    ]
+
+
 def training_states(
     sample: LabelledAssembly, states: StateSet | str
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -81,6 +109,7 @@ class StateBatch:
     flags: torch.Tensor  # (T, N) assembled flags, 0 on padding
     labels: torch.Tensor  # (T, N) next-step labels, 0 on padding
     mask: torch.Tensor  # (T, N) bool: real part nodes
+    weights: torch.Tensor | None = None  # (T,) per-state loss weights; None = all 1
 
     @property
     def n_states(self) -> int:
@@ -175,16 +204,23 @@ class StateDataset:
         chunk_size: int,
         training: bool,
         seed: int,
+        balance_steps: bool = False,
     ) -> None:
         self.samples = list(samples)
         self.enc = enc
         self.training = training
         self.rng = np.random.default_rng([seed, int(training)])
         self.chunks: list[tuple[int, np.ndarray, np.ndarray]] = []
-        for i, sample in enumerate(self.samples):
-            s, y = training_states(sample, states)
+        self.weights: list[np.ndarray] | None = None
+        per_sample = [training_states(sample, states) for sample in self.samples]
+        if balance_steps:
+            weights = step_weights(self.samples, [s for s, _ in per_sample])
+            self.weights = []
+        for i, (s, y) in enumerate(per_sample):
             for lo in range(0, len(s), chunk_size):
                 self.chunks.append((i, s[lo : lo + chunk_size], y[lo : lo + chunk_size]))
+                if self.weights is not None:
+                    self.weights.append(weights[i][lo : lo + chunk_size])
         # Fixed encodings are computed once; randomised training encodings are redrawn per use.
         # Evaluation encodings stay fixed per assembly (seeded by its index) across epochs.
         self._fixed: dict[int, AssemblyTensors] = {}
@@ -193,14 +229,24 @@ class StateDataset:
                 rng = np.random.default_rng([seed, i]) if enc.randomised else None
                 self._fixed[i] = encode_assembly(sample.assembly, enc, training, rng)
 
+    def extend(self, extra: Mapping[int, tuple[np.ndarray, np.ndarray]], chunk_size: int) -> None:
+        """Add (states, label masks) for samples by index (the states a planner visited, see
+        grace/tasks/dagger.py); they weigh 1 also under step balancing."""
+        for i, (s, y) in extra.items():
+            for lo in range(0, len(s), chunk_size):
+                self.chunks.append((i, s[lo : lo + chunk_size], y[lo : lo + chunk_size]))
+                if self.weights is not None:
+                    self.weights.append(np.ones(len(s[lo : lo + chunk_size]), dtype=np.float32))
+
     def __len__(self) -> int:
         return len(self.chunks)
 
-    def __getitem__(self, k: int) -> tuple[AssemblyTensors, np.ndarray, np.ndarray]:
+    def __getitem__(self, k: int) -> tuple[AssemblyTensors, np.ndarray, np.ndarray, np.ndarray]:
         i, s, y = self.chunks[k]
+        w = self.weights[k] if self.weights is not None else np.ones(len(s), dtype=np.float32)
         if i in self._fixed:
-            return self._fixed[i], s, y
-        return encode_assembly(self.samples[i].assembly, self.enc, True, self.rng), s, y
+            return self._fixed[i], s, y, w
+        return encode_assembly(self.samples[i].assembly, self.enc, True, self.rng), s, y, w
 
     def chunk_sizes(self) -> list[int]:
         return [len(s) for _, s, _ in self.chunks]
@@ -212,16 +258,24 @@ def make_loader(
     """A DataLoader over `dataset` batched by assembly; runs in the main process (seeded)."""
     sampler = AssemblyBatchSampler(dataset.chunk_sizes(), batch_size, shuffle, seed)
 
-    def merge(items: list[tuple[AssemblyTensors, np.ndarray, np.ndarray]]) -> StateBatch:
-        groups: dict[int, tuple[AssemblyTensors, list[np.ndarray], list[np.ndarray]]] = {}
-        for tensors, s, y in items:  # chunks of one assembly share its tensors: merge them
-            group = groups.setdefault(id(tensors), (tensors, [], []))
+    def merge(
+        items: list[tuple[AssemblyTensors, np.ndarray, np.ndarray, np.ndarray]],
+    ) -> StateBatch:
+        groups: dict[int, tuple[AssemblyTensors, list, list, list]] = {}
+        for tensors, s, y, w in items:  # chunks of one assembly share its tensors: merge them
+            group = groups.setdefault(id(tensors), (tensors, [], [], []))
             group[1].append(s)
             group[2].append(y)
+            group[3].append(w)
         tensors = [g[0] for g in groups.values()]
         states = [np.concatenate(g[1]) for g in groups.values()]
         labels = [np.concatenate(g[2]) for g in groups.values()]
-        return collate(tensors, states, labels)
+        batch = collate(tensors, states, labels)
+        if dataset.weights is not None:
+            batch.weights = torch.from_numpy(
+                np.concatenate([w for g in groups.values() for w in g[3]])
+            )
+        return batch
 
     return DataLoader(dataset, batch_sampler=sampler, collate_fn=merge, num_workers=0)
 
@@ -243,11 +297,13 @@ class StateDataModule(pl.LightningDataModule):
         batch_size: int = 256,
         seed: int = 0,
         mixing: Mixing = Mixing.assembly,
+        balance_steps: bool = False,
     ) -> None:
         super().__init__()
         self.collate, self.batch_size, self.seed = collate, batch_size, seed
         chunk = batch_size if Mixing(mixing) is Mixing.assembly else 1
-        self.train_set = StateDataset(train, enc, states, chunk, True, seed)
+        self.chunk_size = chunk
+        self.train_set = StateDataset(train, enc, states, chunk, True, seed, balance_steps)
         self.val_set = StateDataset(val, enc, states, batch_size, False, seed)
         self._start_epoch = 0
         self._sampler: AssemblyBatchSampler | None = None

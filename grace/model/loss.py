@@ -12,12 +12,17 @@ def grace_loss(
     flags: torch.Tensor,
     mask: torch.Tensor,
     delta: float,
+    weights: torch.Tensor | None = None,
 ) -> torch.Tensor:
     """Mean over real part nodes of (1−δ)·BCE(y, ŷ) + δ·ŷ·assembled-flag.
+
+    `weights` (T,), if given, scales each state's nodes (step balancing, docs/training.md).
 
     The regulariser pushes scores of already placed parts to 0 (paper Eq. 5); BCE is computed from
     logits for numerical stability, which is the same function as BCE on the sigmoid.
     """
     bce = F.binary_cross_entropy_with_logits(logits, labels, reduction="none")
     per_node = (1.0 - delta) * bce + delta * torch.sigmoid(logits) * flags
+    if weights is not None:
+        per_node = per_node * weights.unsqueeze(1)
     return per_node[mask].mean()

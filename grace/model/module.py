@@ -76,7 +76,7 @@ class GraceModule(pl.LightningModule):
 
     def _step(self, batch: StateBatch, stage: str) -> torch.Tensor:
         logits = self(batch)
-        loss = grace_loss(logits, batch.labels, batch.flags, batch.mask, self.delta)
+        loss = grace_loss(logits, batch.labels, batch.flags, batch.mask, self.delta, batch.weights)
         self.log(f"{stage}_loss", loss, on_epoch=True, on_step=False, batch_size=batch.n_states)
         scores = torch.sigmoid(logits.detach())[batch.mask]
         self._outputs[stage].append((scores, batch.labels[batch.mask]))

@@ -8,10 +8,11 @@ loggers, `cfg.trainer` the Lightning Trainer. grace.model.training.fit gets the 
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import lightning.pytorch as pl
+import numpy as np
 from hydra.utils import instantiate
 from lightning.pytorch.callbacks import ModelCheckpoint
 from omegaconf import DictConfig, OmegaConf, open_dict
@@ -27,12 +28,18 @@ KEPT_CONFIG = "config.yaml"
 model can be rebuilt later (task=plan)."""
 
 
-def keep_config(cfg: DictConfig, out_dir: str | Path) -> Path:
-    """Write `cfg` (resolved, without Hydra's own node) to `out_dir/config.yaml`."""
+def _resolved(cfg: DictConfig) -> dict:
+    """`cfg` resolved, without Hydra's own node: what config.yaml holds."""
     node = OmegaConf.to_container(cfg, resolve=True)
     node.pop("hydra", None)
+    return node
+
+
+def keep_config(cfg: DictConfig, out_dir: str | Path) -> Path:
+    """Write `cfg` (resolved, without Hydra's own node) to `out_dir/config.yaml`: task=plan
+    rebuilds the model from it, and a rerun compares itself with it before resuming."""
     path = Path(out_dir) / KEPT_CONFIG
-    write_text_atomic(path, OmegaConf.to_yaml(OmegaConf.create(node)))
+    write_text_atomic(path, OmegaConf.to_yaml(OmegaConf.create(_resolved(cfg))))
     return path
 
 
@@ -61,30 +68,35 @@ def train_module(
     val: Sequence[LabelledAssembly],
     out_dir: str | Path,
     callbacks: Sequence[pl.Callback] = (),
+    extra_states: Mapping[int, tuple[np.ndarray, np.ndarray]] | None = None,
 ) -> GraceModule:
     """A module trained on `train`, early-stopped on `val`, with its best checkpoint's weights.
 
     Checkpoints, logs and the run's config (config.yaml) go under `out_dir`; `callbacks` are
-    added to the configured ones.
+    added to the configured ones. `extra_states` adds (states, label masks) to `train[i]` by
+    index (grace/tasks/dagger.py).
     """
     if not train:
         raise UserError(
             "the training set is empty; fix: check dataset.sizes and the protocol's sizes"
         )
     cfg = fit_config(cfg, out_dir, validated=bool(val))
-    keep_config(cfg, out_dir)
     module = instantiate(cfg.model)
     datamodule = instantiate(cfg.datamodule)(
         train=train, val=val, enc=module.enc, collate=module.impl.collate
     )
+    if extra_states:
+        datamodule.train_set.extend(extra_states, datamodule.chunk_size)
     configured = instantiate_named(cfg.callbacks)
+    resume = resume_from(cfg, out_dir, configured)
+    keep_config(cfg, out_dir)
     trainer = instantiate(
         cfg.trainer,
         callbacks=[*configured, *callbacks],
         logger=instantiate_named(cfg.logger),
         **({} if val else {"limit_val_batches": 0}),
     )
-    return fit(module, datamodule, trainer, ckpt_path=resume_from(cfg, out_dir, configured))
+    return fit(module, datamodule, trainer, ckpt_path=resume)
 
 
 RUN_ONLY = (
@@ -94,12 +106,23 @@ RUN_ONLY = (
 """Keys that change where or how fast a run goes, never its results: a rerun may change them."""
 
 
-def resume_from(cfg: DictConfig, out_dir: str | Path, callbacks: Sequence[object]) -> str | None:
-    """The `last.ckpt` that a killed run of this config left in `out_dir`, or None (then this
-    run's config is recorded in `out_dir/fit_config.yaml`, to recognise it on a rerun).
+def _results_keys(node: dict) -> dict:
+    """`node` without the RUN_ONLY keys: what decides a run's results."""
+    node = OmegaConf.to_container(OmegaConf.create(node))
+    for key in RUN_ONLY:
+        *parents, name = key.split(".")
+        inner = node
+        for parent in parents:
+            inner = inner.get(parent) or {}
+        inner.pop(name, None)
+    return node
 
-    A last checkpoint written under another config is a UserError: resuming it would mix two
-    experiments.
+
+def resume_from(cfg: DictConfig, out_dir: str | Path, callbacks: Sequence[object]) -> str | None:
+    """The `last.ckpt` that a killed run of this config left in `out_dir`, or None.
+
+    Called before keep_config overwrites `out_dir/config.yaml`: a last checkpoint whose run kept
+    another config is a UserError, since resuming it would mix two experiments.
     """
     saving = [c for c in callbacks if isinstance(c, ModelCheckpoint) and c.save_last]
     if not saving or saving[0].dirpath is None:
@@ -108,19 +131,11 @@ def resume_from(cfg: DictConfig, out_dir: str | Path, callbacks: Sequence[object
     last = (
         Path(checkpoint.dirpath) / f"{checkpoint.CHECKPOINT_NAME_LAST}{checkpoint.FILE_EXTENSION}"
     )
-    kept = OmegaConf.to_container(cfg, resolve=True)
-    for key in RUN_ONLY:
-        *parents, name = key.split(".")
-        node = kept
-        for parent in parents:
-            node = node.get(parent) or {}
-        node.pop(name, None)
-    text = OmegaConf.to_yaml(OmegaConf.create(kept))
-    record = Path(out_dir) / "fit_config.yaml"
     if not last.exists():
-        write_text_atomic(record, text)
         return None
-    if record.exists() and record.read_text() != text:
+    record = Path(out_dir) / KEPT_CONFIG
+    before = OmegaConf.to_container(OmegaConf.load(record)) if record.exists() else None
+    if before is not None and _results_keys(before) != _results_keys(_resolved(cfg)):
         raise UserError(
             f"{last} was written by a run of another config ({record}); fix: the same "
             f"overrides as that run, or a new paths.output_dir, or delete {Path(out_dir)}"

@@ -10,6 +10,7 @@ from grace.graphs.datamodule import (
     StateDataModule,
     collate_dense,
     collate_graphs,
+    step_weights,
     training_states,
 )
 from grace.graphs.dense import DenseAssemblies
@@ -89,3 +90,29 @@ def test_state_mixing_draws_states_across_assemblies(samples):
         len(training_states(s, "reachable")[0]) for s in samples
     )
     assert max(len(b.inputs.part_mask) for b in batches) > 2  # several assemblies per batch
+
+
+def test_step_balancing_gives_every_step_of_a_size_the_same_weight(samples):
+    states = [training_states(s, "reachable")[0] for s in samples]
+    weights = step_weights(samples, states)
+    for size in {s.size for s in samples}:
+        picked = [i for i, s in enumerate(samples) if s.size == size]
+        steps = np.concatenate([[bin(int(x)).count("1") for x in states[i]] for i in picked])
+        w = np.concatenate([weights[i] for i in picked])
+        assert np.isclose(w.mean(), 1.0)
+        totals = [w[steps == t].sum() for t in np.unique(steps)]
+        assert np.allclose(totals, len(w) / len(totals))
+        empty = [weights[i][list(states[i]).index(0)] for i in picked]
+        assert min(empty) > 1.0  # one empty state per assembly: the rarest step weighs most
+
+
+def test_balanced_loader_carries_weights_and_validation_does_not(samples):
+    dm = StateDataModule(
+        samples[:5], samples[5:], GraphEncoding(), batch_size=16, balance_steps=True
+    )
+    train = list(dm.train_dataloader())
+    assert all(b.weights is not None and len(b.weights) == b.n_states for b in train)
+    weights = torch.cat([b.weights for b in train])
+    assert np.isclose(float(weights.sum()), len(weights), rtol=1e-4)  # mean 1 per size
+    assert float(weights.max()) > 1.0 > float(weights.min())
+    assert all(b.weights is None for b in dm.val_dataloader())

@@ -27,3 +27,18 @@ def test_penalty_pushes_placed_parts_down():
     )
     loss.backward()
     assert logits.grad[0, 0] > logits.grad[0, 1] > 0
+
+
+def test_state_weights_scale_each_states_nodes():
+    logits = torch.tensor([[0.0, 2.0], [1.0, -3.0]])
+    labels = torch.tensor([[1.0, 0.0], [0.0, 1.0]])
+    flags = torch.zeros(2, 2)
+    mask = torch.tensor([[True, True], [True, False]])  # the second state has one real node
+    nodes = [
+        -math.log(0.5),
+        -math.log(1 - 1 / (1 + math.exp(-2.0))),
+        -math.log(1 - 1 / (1 + math.exp(-1.0))),
+    ]
+    expected = (3.0 * 0.7 * nodes[0] + 3.0 * 0.7 * nodes[1] + 0.5 * 0.7 * nodes[2]) / 3
+    loss = grace_loss(logits, labels, flags, mask, 0.3, torch.tensor([3.0, 0.5]))
+    assert math.isclose(float(loss), expected, rel_tol=1e-6)
