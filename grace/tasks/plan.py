@@ -177,7 +177,9 @@ def run(cfg: DictConfig) -> float | None:
         sim = entry["simulator"]
         verdict = "feasible"
         if not sim["feasible"]:
-            verdict = f"fails at step {sim['failing_step']}: {sim['reason']}"
+            step = sim["failing_step"]  # 0-based in plan.json, 1-based for reading
+            part = entry["sequence"][step]
+            verdict = f"fails at step {step + 1} (part {part}): {sim['reason']}"
         order = " ".join(str(p) for p in entry["sequence"])
         print(f"{entry['rank']:3d}. {order}  p={entry['probability']:.4g}  simulator: {verdict}")
     if not result["sequences"]:
