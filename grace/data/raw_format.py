@@ -37,11 +37,11 @@ from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
 from grace.errors import UserError
 
-SPEC_FILE = "assembly.spec"
+ASSEMBLY_FILE = "assembly.spec"
 DISTANCES_FILE = "distances.csv"
 SOLUTIONS_FILE = "solutions.csv"
 DEAD_ENDS_FILE = "inter_solutions.csv"
-RAW_FILES = (SPEC_FILE, DISTANCES_FILE, SOLUTIONS_FILE, DEAD_ENDS_FILE)
+RAW_FILES = (ASSEMBLY_FILE, DISTANCES_FILE, SOLUTIONS_FILE, DEAD_ENDS_FILE)
 
 POSE_TOLERANCE = 1e-6
 """Largest deviation (rotation entries, and mm for z) from an exact table pose that import accepts:
@@ -134,7 +134,7 @@ def export_raw(sample: LabelledAssembly, folder: str | Path) -> None:
                 f"part name {name!r} cannot be written: names need no spaces or commas"
             )
     texts = {
-        SPEC_FILE: _spec_text(assembly),
+        ASSEMBLY_FILE: _spec_text(assembly),
         DISTANCES_FILE: _distances_text(assembly),
         SOLUTIONS_FILE: _orders_text(list(truth.orders()), names),
         DEAD_ENDS_FILE: _orders_text(list(truth.dead_ends()), names),
@@ -338,7 +338,7 @@ def _parse_distances(path: Path, assembly: Assembly) -> np.ndarray:
                 raise _error(
                     path,
                     number,
-                    f"surface {surface!r} is not a surface of a part in {SPEC_FILE}",
+                    f"surface {surface!r} is not a surface of a part in {ASSEMBLY_FILE}",
                     "name surfaces '<part>_surface_<k>' after a listed part, k within its surfaces",
                 )
         value = _parse_number(fields[2], path, number, "relation value")
@@ -379,7 +379,7 @@ def _parse_orders(
                 raise _error(
                     path,
                     number,
-                    f"part {name!r} is not in {SPEC_FILE}",
+                    f"part {name!r} is not in {ASSEMBLY_FILE}",
                     "use the part names of assembly.spec",
                 )
             order.append(index[name])
@@ -446,7 +446,7 @@ def _check_dead_ends(
 def import_raw(folder: str | Path) -> LabelledAssembly:
     """Read one raw assembly folder; relations from the poses overridden by `distances.csv`."""
     folder = Path(folder)
-    parts = _parse_spec(folder / SPEC_FILE)
+    parts = _parse_spec(folder / ASSEMBLY_FILE)
     assembly = Assembly(tuple(parts), name=folder.name)
     assembly.relations = _parse_distances(folder / DISTANCES_FILE, assembly)
     names = [p.name for p in parts]
@@ -462,10 +462,10 @@ def read_assembly(path: str | Path) -> tuple[Assembly, GroundTruth | None]:
     """An assembly to plan: a raw folder (with `solutions.csv` also its ground truth, with
     `distances.csv` its relations) or a lone `assembly.spec` (relations from the poses)."""
     path = Path(path)
-    spec = path / SPEC_FILE if path.is_dir() else path
+    spec = path / ASSEMBLY_FILE if path.is_dir() else path
     if not spec.is_file():
         raise _error(
-            spec, None, "no such file", f"pass a raw assembly folder or its {SPEC_FILE} file"
+            spec, None, "no such file", f"pass a raw assembly folder or its {ASSEMBLY_FILE} file"
         )
     folder = spec.parent
     if (folder / SOLUTIONS_FILE).is_file() and (folder / DISTANCES_FILE).is_file():
@@ -518,7 +518,7 @@ def find_raw_folders(root: str | Path) -> list[Path]:
         raise _error(
             root,
             None,
-            f"no assembly folders (none holds {SPEC_FILE})",
+            f"no assembly folders (none holds {ASSEMBLY_FILE})",
             "set dataset.path to a folder of raw assembly folders",
         )
     return folders

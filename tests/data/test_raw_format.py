@@ -73,7 +73,7 @@ stem_surface_3,br_surface_2,0
 stem_surface_4,br_surface_1,40
 """
 
-FRAME_SPEC = """\
+FRAME_PIECES = """\
 begin Pieces
 bar item_profile_300 0;-1;0;0&1;0;0;0&0;0;1;0&0;0;0;1
 stem item_profile_200 1;0;0;0.25&0;1;0;120&0;0;1;0&0;0;0;1
@@ -84,7 +84,7 @@ end Pieces
 
 def test_export_layout(tmp_path):
     export_raw(_bracket_frame(), tmp_path / "frame")
-    assert (tmp_path / "frame" / "assembly.spec").read_text() == FRAME_SPEC
+    assert (tmp_path / "frame" / "assembly.spec").read_text() == FRAME_PIECES
     assert (tmp_path / "frame" / "distances.csv").read_text() == FRAME_DISTANCES
     assert (tmp_path / "frame" / "solutions.csv").read_text() == "bar,stem,br\nstem,bar,br\n"
     assert (tmp_path / "frame" / "inter_solutions.csv").read_text() == ""
@@ -167,7 +167,7 @@ def test_byte_order_mark_and_crlf_are_read_transparently(tmp_path):
 def test_byte_order_mark_keeps_line_numbers(tmp_path):
     export_raw(_bracket_frame(), tmp_path / "frame")
     spec = tmp_path / "frame" / "assembly.spec"
-    spec.write_bytes(codecs.BOM_UTF8 + FRAME_SPEC.replace("0.25", "\xff").encode("latin-1"))
+    spec.write_bytes(codecs.BOM_UTF8 + FRAME_PIECES.replace("0.25", "\xff").encode("latin-1"))
     with pytest.raises(RawFormatError, match=r"assembly\.spec:3: byte 0xff is not UTF-8"):
         import_raw(tmp_path / "frame")
 
@@ -199,7 +199,7 @@ def test_consistent_dead_ends_are_kept(tmp_path):
 
 # ---------------------------------------------------------------- bad input, one row per case
 
-SPEC, DIST, SOLS, DEAD = RAW_FILES
+PIECES, DIST, SOLS, DEAD = RAW_FILES
 BAR = "bar item_profile_300 {}"
 FLAT = "1;0;0;0&0;1;0;0&0;0;1;0&0;0;0;1"
 R45 = "0.7071067811865476;-0.7071067811865476;0;0&0.7071067811865476;0.7071067811865476;0;0"
@@ -211,51 +211,51 @@ TOO_MANY = "begin Pieces\n" + "".join(
 # (file, edit, line the message names (None: the file as a whole), problem, fix). An edit is
 # DELETE, the whole new content (bytes), or (line, text) replacing that line of the frame's file.
 BAD_INPUT = {
-    "missing spec": (SPEC, DELETE, None, "missing file", "every assembly folder needs"),
+    "missing spec": (PIECES, DELETE, None, "missing file", "every assembly folder needs"),
     "missing distances": (DIST, DELETE, None, "missing file", "every assembly folder needs"),
     "missing solutions": (SOLS, DELETE, None, "missing file", "every assembly folder needs"),
-    "not utf-8": (SPEC, FRAME_SPEC.replace("0.25", "\xe9").encode("latin-1"), 3,
+    "not utf-8": (PIECES, FRAME_PIECES.replace("0.25", "\xe9").encode("latin-1"), 3,
                   "byte 0xe9 is not UTF-8", "save the file as UTF-8"),
-    "empty spec": (SPEC, b"", None, "file is empty", "write 'begin Pieces'"),
-    "blank spec": (SPEC, b"\n  \n", None, "file is empty", "write 'begin Pieces'"),
-    "no begin": (SPEC, (1, "begin Parts"), 1, "'begin Parts', not 'begin Pieces'",
+    "empty spec": (PIECES, b"", None, "file is empty", "write 'begin Pieces'"),
+    "blank spec": (PIECES, b"\n  \n", None, "file is empty", "write 'begin Pieces'"),
+    "no begin": (PIECES, (1, "begin Parts"), 1, "'begin Parts', not 'begin Pieces'",
                  "start the file with 'begin Pieces'"),
-    "no end": (SPEC, (5, ""), 4, "last line is not 'end Pieces'", "end the file with"),
-    "no parts": (SPEC, b"begin Pieces\nend Pieces\n", 2, "no parts between",
+    "no end": (PIECES, (5, ""), 4, "last line is not 'end Pieces'", "end the file with"),
+    "no parts": (PIECES, b"begin Pieces\nend Pieces\n", 2, "no parts between",
                  "list one line per part"),
-    "part fields": (SPEC, (2, "bar item_profile_300"), 2, "expected '<name> <type> <pose>'",
+    "part fields": (PIECES, (2, "bar item_profile_300"), 2, "expected '<name> <type> <pose>'",
                     "three fields"),
-    "part type": (SPEC, (3, "stem item_profile_400 " + FLAT), 3,
+    "part type": (PIECES, (3, "stem item_profile_400 " + FLAT), 3,
                   "unknown part type 'item_profile_400'", "use one of item_profile_200"),
-    "duplicate name": (SPEC, (3, "bar item_profile_200 " + FLAT), 3,
+    "duplicate name": (PIECES, (3, "bar item_profile_200 " + FLAT), 3,
                        "duplicate part name 'bar' (also on line 2)", "unique name"),
-    "comma in name": (SPEC, (2, "b,ar item_profile_300 " + FLAT), 2, "'b,ar' contains ','",
+    "comma in name": (PIECES, (2, "b,ar item_profile_300 " + FLAT), 2, "'b,ar' contains ','",
                       "rename the part"),
-    "too many parts": (SPEC, (TOO_MANY + "end Pieces\n").encode(), 66,
+    "too many parts": (PIECES, (TOO_MANY + "end Pieces\n").encode(), 66,
                        "64 parts, more than the 63", "at most 63 parts"),
-    "pose 15 entries": (SPEC, (2, BAR.format("1;0;0&0;1;0;0&0;0;1;0&0;0;0;1")), 2,
+    "pose 15 entries": (PIECES, (2, BAR.format("1;0;0&0;1;0;0&0;0;1;0&0;0;0;1")), 2,
                         "is not a 4×4 matrix", "write 16 numbers"),
-    "pose word": (SPEC, (2, BAR.format("1;0;0;x&0;1;0;0&0;0;1;0&0;0;0;1")), 2,
+    "pose word": (PIECES, (2, BAR.format("1;0;0;x&0;1;0;0&0;0;1;0&0;0;0;1")), 2,
                   "pose entry 'x' is not a finite number", "write pose entry as a number"),
-    "pose nan": (SPEC, (2, BAR.format("1;0;0;nan&0;1;0;0&0;0;1;0&0;0;0;1")), 2,
+    "pose nan": (PIECES, (2, BAR.format("1;0;0;nan&0;1;0;0&0;0;1;0&0;0;0;1")), 2,
                  "pose entry 'nan' is not a finite number", "as a number"),
-    "pose 45°": (SPEC, (2, BAR.format(R45 + "&0;0;1;0&0;0;0;1")), 2,
+    "pose 45°": (PIECES, (2, BAR.format(R45 + "&0;0;1;0&0;0;0;1")), 2,
                  "turns the part by 45° about z", "0, 90, 180 or 270°"),
-    "pose scaled ×2": (SPEC, (2, BAR.format("2;0;0;0&0;2;0;0&0;0;2;0&0;0;0;1")), 2,
+    "pose scaled ×2": (PIECES, (2, BAR.format("2;0;0;0&0;2;0;0&0;0;2;0&0;0;0;1")), 2,
                        "scaled or sheared: the rows of its 3×3 rotation block have lengths 2, 2, 2",
                        "write a pure rotation"),
-    "pose sheared": (SPEC, (2, BAR.format("1;0.5;0;0&0;1;0;0&0;0;1;0&0;0;0;1")), 2,
+    "pose sheared": (PIECES, (2, BAR.format("1;0.5;0;0&0;1;0;0&0;0;1;0&0;0;0;1")), 2,
                      "scaled or sheared", "write a pure rotation"),
-    "pose mirrored": (SPEC, (2, BAR.format("1;0;0;0&0;-1;0;0&0;0;1;0&0;0;0;1")), 2,
+    "pose mirrored": (PIECES, (2, BAR.format("1;0;0;0&0;-1;0;0&0;0;1;0&0;0;0;1")), 2,
                       "mirrors the part", "determinant +1"),
-    "pose tilted": (SPEC, (2, BAR.format("1;0;0;0&0;0;-1;0&0;1;0;0&0;0;0;1")), 2,
+    "pose tilted": (PIECES, (2, BAR.format("1;0;0;0&0;0;-1;0&0;1;0;0&0;0;0;1")), 2,
                     "tilts the part off the table (its z axis points along (0, -1, 0))",
                     "rotate parts about z only"),
-    "pose z=500": (SPEC, (2, BAR.format("1;0;0;0&0;1;0;0&0;0;1;500&0;0;0;1")), 2,
+    "pose z=500": (PIECES, (2, BAR.format("1;0;0;0&0;1;0;0&0;0;1;500&0;0;0;1")), 2,
                    "at z = 500 mm, off the table", "set the z translation"),
-    "pose z=1µm": (SPEC, (2, BAR.format("1;0;0;0&0;1;0;0&0;0;1;0.001&0;0;0;1")), 2,
+    "pose z=1µm": (PIECES, (2, BAR.format("1;0;0;0&0;1;0;0&0;0;1;0.001&0;0;0;1")), 2,
                    "at z = 0.001 mm", "set the z translation"),
-    "pose last row": (SPEC, (2, BAR.format("1;0;0;0&0;1;0;0&0;0;1;0&0;0;1;1")), 2,
+    "pose last row": (PIECES, (2, BAR.format("1;0;0;0&0;1;0;0&0;0;1;0&0;0;1;1")), 2,
                       "last row is 0;0;1;1, not 0;0;0;1", "end the pose with the row 0;0;0;1"),
     "distance fields": (DIST, (1, "bar_surface_1,stem_surface_4"), 1,
                         "expected '<surface>,<surface>,<value>'", "three comma-separated"),

@@ -23,7 +23,7 @@ from grace.visualisation.recording import summarise, text_entries
 # Hand-made: a 300 mm bar, a 200 mm stem and an angle bracket joining them. Placed first, the
 # bracket has nothing to hold it (fixation); placed last, between both profiles, the gripper's
 # fingers hit them (fingers). So the bracket goes second.
-SPEC = """begin Pieces
+PIECES = """begin Pieces
 bar item_profile_300 0;-1;0;0&1;0;0;0&0;0;1;0&0;0;0;1
 stem item_profile_200 1;0;0;0.25&0;1;0;120&0;0;1;0&0;0;0;1
 br item_angle_bracket 1;0;0;20.25&0;1;0;20&0;0;1;0&0;0;0;1
@@ -36,7 +36,7 @@ def fit(cfg_factory, root):
     """A small GRACE fitted to the hand-made assembly's states (a plain Adam loop: Lightning's
     per-epoch work would cost more than the fit), kept as a run would keep it."""
     (root / "asm").mkdir()
-    (root / "asm" / "assembly.spec").write_text(SPEC)
+    (root / "asm" / "assembly.spec").write_text(PIECES)
     cfg = cfg_factory("task=train", "model.net.hidden=32", "model.net.pair_readout=16", "threads=1")
     assembly, truth = read_assembly(root / "asm")
     assert truth is None  # a lone assembly.spec: no ground truth given
