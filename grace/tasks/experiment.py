@@ -109,6 +109,16 @@ class FoldResult:
     records: list[SequenceRecord]
 
 
+def start_fold(cfg: DictConfig, fold: Fold, threads: int, parent: int) -> None:
+    """What every fold does first, in whichever process runs it: seed by `seed + fold index`
+    (so a fold's result does not depend on which folds ran before it or where), cap the threads,
+    and in a worker process (not `parent`) send all messages to the run's log file."""
+    if os.getpid() != parent:
+        log_to_file(cfg.paths.log_file, f"fold {fold.index}")
+    seed_everything(int(cfg.seed) + fold.index, workers=True, verbose=False)
+    torch.set_num_threads(threads)
+
+
 def run_fold(
     cfg: DictConfig,
     fold: Fold,
@@ -125,10 +135,7 @@ def run_fold(
     before it or in which process. In a worker process (not `parent`) all messages go to the
     run's log file; the parent shows the fold's progress from `progress`.
     """
-    if os.getpid() != parent:
-        log_to_file(cfg.paths.log_file, f"fold {fold.index}")
-    seed_everything(int(cfg.seed) + fold.index, workers=True, verbose=False)
-    torch.set_num_threads(threads)
+    start_fold(cfg, fold, threads, parent)
     log.info(
         "fold %d: train %d, val %d, test %d assemblies",
         *(fold.index, len(train), len(val), len(test)),

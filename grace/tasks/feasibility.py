@@ -14,16 +14,13 @@ from __future__ import annotations
 import json
 import logging
 import math
-import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import torch
 from hydra.utils import instantiate
-from lightning.pytorch import seed_everything
 from omegaconf import MISSING, DictConfig
 
 from grace.data.atomic import write_text_atomic
@@ -39,8 +36,7 @@ from grace.evaluation.feasibility import (
 from grace.evaluation.protocols import Fold, training_subset
 from grace.evaluation.report import feasibility_table, health_lines
 from grace.planning.sequences import Scorer
-from grace.tasks.experiment import ExperimentSettings, _folds, _run_folds
-from grace.tasks.logs import log_to_file
+from grace.tasks.experiment import ExperimentSettings, _folds, _run_folds, start_fold
 from grace.tasks.progress import FoldReporter
 from grace.visualisation.analysis import feasibility_roc
 
@@ -87,10 +83,7 @@ def run_fold(
 ) -> tuple[dict[int, dict], list[dict]]:
     """Every scheme's per-size summary on one fold, and the health of its models (arguments as
     grace.tasks.experiment.run_fold)."""
-    if os.getpid() != parent:
-        log_to_file(cfg.paths.log_file, f"fold {fold.index}")
-    seed_everything(int(cfg.seed) + fold.index, workers=True, verbose=False)
-    torch.set_num_threads(threads)
+    start_fold(cfg, fold, threads, parent)
     fit, make_scorer = instantiate(cfg.task.fit), instantiate(cfg.task.scorer)
     out = Path(cfg.paths.output_dir)
     runs = [("", train, val, out / f"fold_{fold.index}")]
