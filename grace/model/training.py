@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+from pathlib import Path
 
 import lightning.pytorch as pl
 import torch
@@ -10,6 +11,12 @@ import torch
 from grace.model.module import GraceModule
 
 log = logging.getLogger(__name__)
+
+
+def checkpoint_weights(path: str | Path) -> dict:
+    """The module weights of a Lightning checkpoint this project wrote (a full pickle, which
+    Lightning needs for the objects it stores: our own files are trusted)."""
+    return torch.load(path, map_location="cpu", weights_only=False)["state_dict"]
 
 
 def fit(
@@ -32,6 +39,5 @@ def fit(
     if best:
         log.info("best %s: %s (%s)", checkpoint.monitor, checkpoint.best_model_score, best)
         # Our own file from this run: the full pickle (hyper-parameters are objects) is trusted.
-        state = torch.load(best, map_location="cpu", weights_only=False)["state_dict"]
-        module.load_state_dict(state)
+        module.load_state_dict(checkpoint_weights(best))
     return module.eval()

@@ -22,7 +22,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import torch
 from hydra.utils import instantiate
 from omegaconf import MISSING, DictConfig, OmegaConf
 
@@ -31,6 +30,7 @@ from grace.data.raw_format import read_assembly
 from grace.errors import UserError
 from grace.model.module import GraceModule
 from grace.model.scoring import make_scorer
+from grace.model.training import checkpoint_weights
 from grace.simulation.check import blockers, describe
 from grace.tasks.runner import TaskSettings
 from grace.tasks.training import KEPT_CONFIG
@@ -78,8 +78,7 @@ def load_model(ckpt: Path) -> tuple[GraceModule, DictConfig]:
         )
     cfg = OmegaConf.load(kept)
     try:
-        # Our own run's file: the full pickle is trusted (Lightning stores objects in it).
-        state = torch.load(ckpt, map_location="cpu", weights_only=False)["state_dict"]
+        state = checkpoint_weights(ckpt)
     except Exception as e:
         raise UserError(
             f"ckpt={ckpt}: not a readable Lightning checkpoint ({type(e).__name__}: {e}); "
