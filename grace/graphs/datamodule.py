@@ -14,6 +14,17 @@ placed parts) among the training states of assemblies of its size, so that every
 carries the same total weight: the one empty state per assembly otherwise counts as little as one
 of the many mid-sequence states. Weights have mean 1 per size; validation stays unweighted.
 
+`dead_end_target=t` (not in the paper; 0 keeps its labels) grades the labels: a part whose
+placement is physically feasible but leads to a dead end (the ground truth's `placeable` but not
+`completable`) gets the target t instead of 0, in training and validation alike. With 0 < t < λ the
+planner still never takes such a part, but the network learns to rank feasible placements above
+infeasible ones in every state, including the dead ends the planner enters after a wrong step,
+which is what the off-path step AUC measures (docs/metrics.md). The step AUCs still count only
+label 1 as positive. `dead_end_weight=w` scales the training loss of every state from which no
+order completes (all its labels 0: the dead ends `states="reachable"` adds, and the states of an
+infeasible assembly), so that at large sizes, where they outnumber the states on the true orders,
+they do not drown them; validation stays unweighted.
+
 With `mixing="assembly"` (default) batches hold about `batch_size` states drawn from whole
 assemblies (large ones split into chunks), so that the fast path computes each surface embedding
 once per batch. `mixing="state"` draws states independently, as the reference's shuffled
@@ -39,6 +50,7 @@ from torch_geometric.data import Batch
 from grace.domain.assembly import full_mask
 from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
+from grace.errors import UserError
 from grace.graphs.assembly_graph import AssemblyTensors, encode_assembly, state_flags, state_graph
 from grace.graphs.dense import DenseAssemblies
 from grace.graphs.encoding import GraphEncoding
@@ -58,14 +70,24 @@ class Mixing(StrEnum):
     state = "state"
 
 
-def _order_states(truth: GroundTruth) -> tuple[np.ndarray, np.ndarray]:
-    chosen = truth.order_states()
-    return chosen, truth.completable[np.searchsorted(truth.states, chosen)]
+def state_masks(truth: GroundTruth, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(valid next parts, feasible dead-end parts) of `states` as part bitmasks: the ground
+    truth's where it has the state, none where it does not (a state reached through an infeasible
+    placement completes nothing and is no placement check's)."""
+    states = np.asarray(states, dtype=np.int64)
+    where = np.clip(np.searchsorted(truth.states, states), 0, len(truth.states) - 1)
+    known = truth.states[where] == states
+    completable = np.where(known, truth.completable[where], 0).astype(np.int64)
+    placeable = np.where(known, truth.placeable[where], 0).astype(np.int64)
+    return completable, placeable & ~completable
 
 
-def _reachable_states(truth: GroundTruth) -> tuple[np.ndarray, np.ndarray]:
-    keep = truth.states != full_mask(truth.n_parts)
-    return truth.states[keep], truth.completable[keep]
+def _order_states(truth: GroundTruth) -> np.ndarray:
+    return truth.order_states()
+
+
+def _reachable_states(truth: GroundTruth) -> np.ndarray:
+    return truth.states[truth.states != full_mask(truth.n_parts)]
 
 
 _STATE_SETS = {StateSet.orders: _order_states, StateSet.reachable: _reachable_states}
@@ -97,7 +119,8 @@ def training_states(
     sample: LabelledAssembly, states: StateSet | str
 ) -> tuple[np.ndarray, np.ndarray]:
     """(states, label masks) used for training on `sample`; see the module docstring."""
-    return _STATE_SETS[StateSet(states)](sample.truth)
+    chosen = _STATE_SETS[StateSet(states)](sample.truth)
+    return chosen, state_masks(sample.truth, chosen)[0]
 
 
 @dataclass
@@ -107,7 +130,7 @@ class StateBatch:
     inputs: object
     state_assembly: torch.Tensor  # (T,) index into the batch's assemblies
     flags: torch.Tensor  # (T, N) assembled flags, 0 on padding
-    labels: torch.Tensor  # (T, N) next-step labels, 0 on padding
+    labels: torch.Tensor  # (T, N) next-step targets in [0, 1] (1 = valid), 0 on padding
     mask: torch.Tensor  # (T, N) bool: real part nodes
     weights: torch.Tensor | None = None  # (T,) per-state loss weights; None = all 1
 
@@ -115,6 +138,9 @@ class StateBatch:
     def n_states(self) -> int:
         return self.flags.shape[0]
 
+
+Item = tuple[AssemblyTensors, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+"""One chunk: (tensors, states, label masks, loss weights, feasible dead-end masks)."""
 
 Collate = Callable[
     [Sequence[AssemblyTensors], Sequence[np.ndarray], Sequence[np.ndarray]], StateBatch
@@ -205,10 +231,14 @@ class StateDataset:
         training: bool,
         seed: int,
         balance_steps: bool = False,
+        dead_end_target: float = 0.0,
+        dead_end_weight: float = 1.0,
     ) -> None:
         self.samples = list(samples)
         self.enc = enc
         self.training = training
+        self.dead_end_target = dead_end_target
+        self.dead_end_weight = dead_end_weight
         self.rng = np.random.default_rng([seed, int(training)])
         self.chunks: list[tuple[int, np.ndarray, np.ndarray]] = []
         self.weights: list[np.ndarray] | None = None
@@ -241,12 +271,21 @@ class StateDataset:
     def __len__(self) -> int:
         return len(self.chunks)
 
-    def __getitem__(self, k: int) -> tuple[AssemblyTensors, np.ndarray, np.ndarray, np.ndarray]:
+    @property
+    def weighted(self) -> bool:
+        """Whether states carry loss weights other than 1 (batches then carry `weights`)."""
+        return self.weights is not None or self.dead_end_weight != 1.0
+
+    def __getitem__(self, k: int) -> Item:
+        """(tensors, states, label masks, loss weights, feasible dead-end masks) of chunk `k`."""
         i, s, y = self.chunks[k]
         w = self.weights[k] if self.weights is not None else np.ones(len(s), dtype=np.float32)
+        if self.dead_end_weight != 1.0:
+            w = np.where(y == 0, np.float32(self.dead_end_weight), np.float32(1.0)) * w
+        d = state_masks(self.samples[i].truth, s)[1]
         if i in self._fixed:
-            return self._fixed[i], s, y, w
-        return encode_assembly(self.samples[i].assembly, self.enc, True, self.rng), s, y, w
+            return self._fixed[i], s, y, w, d
+        return encode_assembly(self.samples[i].assembly, self.enc, True, self.rng), s, y, w, d
 
     def chunk_sizes(self) -> list[int]:
         return [len(s) for _, s, _ in self.chunks]
@@ -258,23 +297,24 @@ def make_loader(
     """A DataLoader over `dataset` batched by assembly; runs in the main process (seeded)."""
     sampler = AssemblyBatchSampler(dataset.chunk_sizes(), batch_size, shuffle, seed)
 
-    def merge(
-        items: list[tuple[AssemblyTensors, np.ndarray, np.ndarray, np.ndarray]],
-    ) -> StateBatch:
-        groups: dict[int, tuple[AssemblyTensors, list, list, list]] = {}
-        for tensors, s, y, w in items:  # chunks of one assembly share its tensors: merge them
-            group = groups.setdefault(id(tensors), (tensors, [], [], []))
-            group[1].append(s)
-            group[2].append(y)
-            group[3].append(w)
+    def merge(items: list[Item]) -> StateBatch:
+        groups: dict[int, tuple[AssemblyTensors, list, list, list, list]] = {}
+        for tensors, *parts in items:  # chunks of one assembly share its tensors: merge them
+            group = groups.setdefault(id(tensors), (tensors, [], [], [], []))
+            for into, part in zip(group[1:], parts, strict=True):
+                into.append(part)
         tensors = [g[0] for g in groups.values()]
         states = [np.concatenate(g[1]) for g in groups.values()]
         labels = [np.concatenate(g[2]) for g in groups.values()]
         batch = collate(tensors, states, labels)
-        if dataset.weights is not None:
+        if dataset.weighted:
             batch.weights = torch.from_numpy(
-                np.concatenate([w for g in groups.values() for w in g[3]])
+                np.concatenate([np.concatenate(g[3]) for g in groups.values()])
             )
+        if dataset.dead_end_target:
+            dead_ends = np.concatenate([np.concatenate(g[4]) for g in groups.values()])
+            graded = state_flags(dead_ends, batch.labels.shape[1]) * batch.mask
+            batch.labels = batch.labels + dataset.dead_end_target * graded
         return batch
 
     return DataLoader(dataset, batch_sampler=sampler, collate_fn=merge, num_workers=0)
@@ -298,13 +338,29 @@ class StateDataModule(pl.LightningDataModule):
         seed: int = 0,
         mixing: Mixing = Mixing.assembly,
         balance_steps: bool = False,
+        dead_end_target: float = 0.0,
+        dead_end_weight: float = 1.0,
     ) -> None:
         super().__init__()
+        if not 0.0 <= dead_end_target < 0.5:
+            raise UserError(
+                f"datamodule.dead_end_target={dead_end_target} must lie in [0, 0.5) (a dead-end "
+                "part scored at λ 0.5 would be planned); fix: e.g. 0.25, or 0 for the paper's"
+            )
         self.collate, self.batch_size, self.seed = collate, batch_size, seed
         chunk = batch_size if Mixing(mixing) is Mixing.assembly else 1
         self.chunk_size = chunk
-        self.train_set = StateDataset(train, enc, states, chunk, True, seed, balance_steps)
-        self.val_set = StateDataset(val, enc, states, batch_size, False, seed)
+        if dead_end_weight < 0.0:
+            raise UserError(
+                f"datamodule.dead_end_weight={dead_end_weight} is negative; fix: a loss weight "
+                "≥ 0 (1 = every state weighs the same)"
+            )
+        self.train_set = StateDataset(
+            train, enc, states, chunk, True, seed, balance_steps, dead_end_target, dead_end_weight
+        )
+        self.val_set = StateDataset(
+            val, enc, states, batch_size, False, seed, dead_end_target=dead_end_target
+        )
         self._start_epoch = 0
         self._sampler: AssemblyBatchSampler | None = None
 

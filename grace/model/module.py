@@ -32,11 +32,14 @@ Scheduler = Callable[[torch.optim.Optimizer], Any]
 
 def step_auc(scores: torch.Tensor, labels: torch.Tensor) -> torch.Tensor | None:
     """Step AUC (docs/metrics.md): area under the precision–recall curve of part scores against
-    next-step labels; None without a positive label. torchmetrics computes it the way evaluation
-    does with scikit-learn, so the model needs no evaluation code."""
-    if not labels.any():
+    next-step labels; None without a positive label. Only target 1 (a valid next part) is
+    positive: graded dead-end targets (`datamodule.dead_end_target` < 0.5) count as negatives.
+    torchmetrics computes it the way evaluation does with scikit-learn, so the model needs no
+    evaluation code."""
+    positive = labels > 0.5
+    if not positive.any():
         return None
-    precision, recall, _ = binary_precision_recall_curve(scores, labels.long())
+    precision, recall, _ = binary_precision_recall_curve(scores, positive.long())
     return auc(recall, precision)
 
 

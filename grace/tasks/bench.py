@@ -98,7 +98,7 @@ def train_graphs_per_s(
     for step in range(steps + 1):
         items = [dataset[k] for k in batches[step % len(batches)]]
         start = time.perf_counter()
-        tensors, states, labels, _ = zip(*items, strict=True)
+        tensors, states, labels, *_ = zip(*items, strict=True)
         batch = module.impl.collate(tensors, states, labels)
         loss = grace_loss(module(batch), batch.labels, batch.flags, batch.mask, module.delta)
         optimiser.zero_grad()

@@ -20,20 +20,12 @@ import lightning.pytorch as pl
 import numpy as np
 from omegaconf import DictConfig
 
-from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
-from grace.graphs.datamodule import training_states
+from grace.graphs.datamodule import state_masks, training_states
 from grace.model.module import GraceModule
 from grace.model.scoring import make_scorer
 from grace.planning.sequences import Scorer, score_states
 from grace.tasks.training import train_module
-
-
-def ground_truth_labels(truth: GroundTruth, states: np.ndarray) -> np.ndarray:
-    """Valid-next-part masks of `states`: the ground truth's where it has the state, else 0."""
-    where = np.clip(np.searchsorted(truth.states, states), 0, len(truth.states) - 1)
-    known = truth.states[where] == states
-    return np.where(known, truth.completable[where], 0).astype(truth.completable.dtype)
 
 
 def visited_states(
@@ -46,7 +38,7 @@ def visited_states(
         seen = score_states(scorer, sample.assembly, threshold).scored()
         new = np.setdiff1d(seen, training_states(sample, states)[0])
         if new.size:
-            extra[i] = (new, ground_truth_labels(sample.truth, new))
+            extra[i] = (new, state_masks(sample.truth, new)[0])
     return extra
 
 

@@ -5,16 +5,19 @@ from hydra.errors import ConfigCompositionException, InstantiationException
 from hydra.utils import instantiate
 
 from grace.domain.assembly import full_mask
+from grace.errors import UserError
 from grace.graphs.datamodule import (
     AssemblyBatchSampler,
     StateDataModule,
     collate_dense,
     collate_graphs,
+    state_masks,
     step_weights,
     training_states,
 )
 from grace.graphs.dense import DenseAssemblies
 from grace.graphs.encoding import GraphEncoding
+from grace.model.module import step_auc
 
 CONFIG_ERRORS = (ConfigCompositionException, InstantiationException)
 """A bad value fails at composition (a type) or at instantiation (a range)."""
@@ -116,3 +119,68 @@ def test_balanced_loader_carries_weights_and_validation_does_not(samples):
     assert np.isclose(float(weights.sum()), len(weights), rtol=1e-4)  # mean 1 per size
     assert float(weights.max()) > 1.0 > float(weights.min())
     assert all(b.weights is None for b in dm.val_dataloader())
+
+
+def test_state_masks_are_the_ground_truths_and_empty_off_it(samples):
+    truth = next(s.truth for s in samples if s.truth.feasible)
+    valid, dead = state_masks(truth, truth.states)
+    assert valid.tolist() == truth.completable.tolist()
+    assert (dead == truth.placeable & ~truth.completable).tolist()
+    assert not np.any(valid & dead)
+    unknown = np.setdiff1d(np.arange(1 << truth.n_parts), truth.states)
+    assert unknown.size and not state_masks(truth, unknown)[0].any()
+    assert not state_masks(truth, unknown)[1].any()
+
+
+def test_dead_end_target_grades_feasible_dead_end_parts_only(samples):
+    kw = {"batch_size": 4096, "states": "reachable"}
+    graded = StateDataModule(samples, samples, GraphEncoding(), dead_end_target=0.25, **kw)
+    plain = StateDataModule(samples, samples, GraphEncoding(), **kw)
+    for loader in ("train_dataloader", "val_dataloader"):
+        batch = next(iter(getattr(graded, loader)()))
+        base = next(iter(getattr(plain, loader)()))
+        assert torch.equal(batch.flags, base.flags)
+        assert set(batch.labels.unique().tolist()) == {0.0, 0.25, 1.0}
+        assert torch.equal(batch.labels == 1, base.labels == 1)  # valid parts unchanged
+    # every 0.25 is a feasible placement into a dead end, by the ground truth of its state
+    # (validation keeps the assemblies' order, so the batch's assembly index is the sample's)
+    batch = next(iter(graded.val_dataloader()))
+    bits = 1 << torch.arange(batch.flags.shape[1])
+    states = (batch.flags.long() * bits).sum(dim=1)
+    checked = 0
+    for row in range(batch.n_states):
+        truth = samples[int(batch.state_assembly[row])].truth
+        k = int(np.searchsorted(truth.states, int(states[row])))
+        for part in range(truth.n_parts):
+            bit = 1 << part
+            dead_end = truth.placeable[k] & bit and not truth.completable[k] & bit
+            expected = 1.0 if truth.completable[k] & bit else 0.25 if dead_end else 0.0
+            assert float(batch.labels[row, part]) == expected
+            checked += 1
+    assert checked > 100
+
+
+def test_step_auc_counts_only_valid_parts_as_positive():
+    scores = torch.tensor([0.9, 0.3, 0.2, 0.1])
+    assert float(step_auc(scores, torch.tensor([1.0, 0.25, 0.25, 0.0]))) == pytest.approx(1.0)
+    assert step_auc(scores, torch.tensor([0.0, 0.25, 0.25, 0.0])) is None
+
+
+@pytest.mark.parametrize("target", [-0.1, 0.5, 0.9])
+def test_dead_end_target_at_or_above_the_threshold_is_refused(samples, target):
+    with pytest.raises(UserError, match=r"datamodule\.dead_end_target.*fix"):
+        StateDataModule(samples, [], GraphEncoding(), dead_end_target=target)
+
+
+def test_dead_end_weight_scales_states_that_complete_nothing_in_training_only(samples):
+    dm = StateDataModule(
+        samples, samples, GraphEncoding(), batch_size=4096, states="reachable", dead_end_weight=0.3
+    )
+    batch = next(iter(dm.train_dataloader()))
+    dead = batch.labels.sum(dim=1) == 0
+    assert dead.any() and (~dead).any()
+    assert torch.allclose(batch.weights[dead], torch.tensor(0.3))
+    assert torch.all(batch.weights[~dead] == 1.0)
+    assert all(b.weights is None for b in dm.val_dataloader())
+    with pytest.raises(UserError, match=r"datamodule\.dead_end_weight"):
+        StateDataModule(samples, [], GraphEncoding(), dead_end_weight=-1.0)

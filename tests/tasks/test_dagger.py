@@ -6,7 +6,7 @@ from omegaconf import open_dict
 from grace.domain.assembly import full_mask
 from grace.graphs.datamodule import StateDataModule, training_states
 from grace.graphs.encoding import GraphEncoding
-from grace.tasks.dagger import ground_truth_labels, train_dagger, visited_states
+from grace.tasks.dagger import train_dagger, visited_states
 
 
 @pytest.fixture
@@ -45,12 +45,6 @@ def test_a_planner_that_never_passes_visits_only_the_empty_state(samples):
 
     extra = visited_states(reject_all, samples, 0.5, "reachable")
     assert extra == {}  # the empty state is a training state already
-
-
-def test_labels_of_reachable_states_are_the_ground_truths(samples):
-    truth = samples[2].truth
-    labels = ground_truth_labels(truth, truth.states)
-    assert labels.tolist() == truth.completable.tolist()
 
 
 def test_dagger_round_trains_twice(cfg_factory, fake_simulator, samples, tmp_path):
