@@ -240,17 +240,14 @@ class StateDataset:
         self.dead_end_target = dead_end_target
         self.dead_end_weight = dead_end_weight
         self.rng = np.random.default_rng([seed, int(training)])
-        self.chunks: list[tuple[int, np.ndarray, np.ndarray]] = []
-        self.weights: list[np.ndarray] | None = None
+        self.weighted = balance_steps or dead_end_weight != 1.0
+        """Whether states carry loss weights other than 1 (batches then carry `weights`)."""
+        # (sample index, states, label masks, loss weights, feasible dead-end masks)
+        self.chunks: list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
         per_sample = [training_states(sample, states) for sample in self.samples]
-        if balance_steps:
-            weights = step_weights(self.samples, [s for s, _ in per_sample])
-            self.weights = []
+        steps = step_weights(self.samples, [s for s, _ in per_sample]) if balance_steps else None
         for i, (s, y) in enumerate(per_sample):
-            for lo in range(0, len(s), chunk_size):
-                self.chunks.append((i, s[lo : lo + chunk_size], y[lo : lo + chunk_size]))
-                if self.weights is not None:
-                    self.weights.append(weights[i][lo : lo + chunk_size])
+            self._add(i, s, y, None if steps is None else steps[i], chunk_size)
         # Fixed encodings are computed once; randomised training encodings are redrawn per use.
         # Evaluation encodings stay fixed per assembly (seeded by its index) across epochs.
         self._fixed: dict[int, AssemblyTensors] = {}
@@ -259,36 +256,38 @@ class StateDataset:
                 rng = np.random.default_rng([seed, i]) if enc.randomised else None
                 self._fixed[i] = encode_assembly(sample.assembly, enc, training, rng)
 
+    def _add(
+        self, i: int, s: np.ndarray, y: np.ndarray, step: np.ndarray | None, chunk_size: int
+    ) -> None:
+        """Chunk sample `i`'s states with their labels, loss weights (step balancing weight, 1
+        without, times `dead_end_weight` where no order completes) and feasible dead-end masks,
+        all fixed for the whole fit."""
+        w = np.ones(len(s), dtype=np.float32) if step is None else step
+        if self.dead_end_weight != 1.0:
+            w = np.where(y == 0, np.float32(self.dead_end_weight), np.float32(1.0)) * w
+        d = state_masks(self.samples[i].truth, s)[1]
+        for lo in range(0, len(s), chunk_size):
+            part = slice(lo, lo + chunk_size)
+            self.chunks.append((i, s[part], y[part], w[part], d[part]))
+
     def extend(self, extra: Mapping[int, tuple[np.ndarray, np.ndarray]], chunk_size: int) -> None:
         """Add (states, label masks) for samples by index (the states a planner visited, see
         grace/tasks/dagger.py); they weigh 1 also under step balancing."""
         for i, (s, y) in extra.items():
-            for lo in range(0, len(s), chunk_size):
-                self.chunks.append((i, s[lo : lo + chunk_size], y[lo : lo + chunk_size]))
-                if self.weights is not None:
-                    self.weights.append(np.ones(len(s[lo : lo + chunk_size]), dtype=np.float32))
+            self._add(i, s, y, None, chunk_size)
 
     def __len__(self) -> int:
         return len(self.chunks)
 
-    @property
-    def weighted(self) -> bool:
-        """Whether states carry loss weights other than 1 (batches then carry `weights`)."""
-        return self.weights is not None or self.dead_end_weight != 1.0
-
     def __getitem__(self, k: int) -> Item:
         """(tensors, states, label masks, loss weights, feasible dead-end masks) of chunk `k`."""
-        i, s, y = self.chunks[k]
-        w = self.weights[k] if self.weights is not None else np.ones(len(s), dtype=np.float32)
-        if self.dead_end_weight != 1.0:
-            w = np.where(y == 0, np.float32(self.dead_end_weight), np.float32(1.0)) * w
-        d = state_masks(self.samples[i].truth, s)[1]
+        i, *rest = self.chunks[k]
         if i in self._fixed:
-            return self._fixed[i], s, y, w, d
-        return encode_assembly(self.samples[i].assembly, self.enc, True, self.rng), s, y, w, d
+            return self._fixed[i], *rest
+        return encode_assembly(self.samples[i].assembly, self.enc, True, self.rng), *rest
 
     def chunk_sizes(self) -> list[int]:
-        return [len(s) for _, s, _ in self.chunks]
+        return [len(s) for _, s, *_ in self.chunks]
 
 
 def make_loader(
@@ -347,14 +346,14 @@ class StateDataModule(pl.LightningDataModule):
                 f"datamodule.dead_end_target={dead_end_target} must lie in [0, 0.5) (a dead-end "
                 "part scored at λ 0.5 would be planned); fix: e.g. 0.25, or 0 for the paper's"
             )
-        self.collate, self.batch_size, self.seed = collate, batch_size, seed
-        chunk = batch_size if Mixing(mixing) is Mixing.assembly else 1
-        self.chunk_size = chunk
         if dead_end_weight < 0.0:
             raise UserError(
                 f"datamodule.dead_end_weight={dead_end_weight} is negative; fix: a loss weight "
                 "≥ 0 (1 = every state weighs the same)"
             )
+        self.collate, self.batch_size, self.seed = collate, batch_size, seed
+        chunk = batch_size if Mixing(mixing) is Mixing.assembly else 1
+        self.chunk_size = chunk
         self.train_set = StateDataset(
             train, enc, states, chunk, True, seed, balance_steps, dead_end_target, dead_end_weight
         )

@@ -73,7 +73,7 @@ def bench_assemblies(
 
 def _batches(dataset: StateDataset, batch_size: int) -> list[list[int]]:
     batches, current, count = [], [], 0
-    for k, (_, states, _) in enumerate(dataset.chunks):
+    for k, (_, states, *_) in enumerate(dataset.chunks):
         current.append(k)
         count += len(states)
         if count >= batch_size:
