@@ -186,7 +186,13 @@ def collate_graphs(
 
 
 class AssemblyBatchSampler(Sampler[list[int]]):
-    """Shuffles chunks (whole assemblies or parts of big ones) and packs ≈`batch_size` states."""
+    """Shuffles chunks (whole assemblies or parts of big ones) and packs ≈`batch_size` states.
+
+    Deliberately without `__len__`: the number of batches changes with each epoch's shuffle, and
+    Lightning, given a length, takes the first epoch's count as every epoch's and validates only
+    when a batch index hits it, so epochs with fewer batches would go unvalidated (early stopping,
+    checkpoints and the lr schedule would then count validations, not epochs). Without a length,
+    Lightning validates after the last batch of every epoch."""
 
     def __init__(self, chunk_sizes: Sequence[int], batch_size: int, shuffle: bool, seed: int):
         self.chunk_sizes = list(chunk_sizes)
@@ -214,9 +220,6 @@ class AssemblyBatchSampler(Sampler[list[int]]):
         batches = self._batches()
         self.epoch += 1
         return iter(batches)
-
-    def __len__(self) -> int:
-        return len(self._batches())
 
 
 class StateDataset:

@@ -1,8 +1,10 @@
+import lightning.pytorch as pl
 import numpy as np
 import pytest
 import torch
 from hydra.errors import ConfigCompositionException, InstantiationException
 from hydra.utils import instantiate
+from torch.utils.data import DataLoader
 
 from grace.domain.assembly import full_mask
 from grace.errors import UserError
@@ -66,6 +68,61 @@ def test_sampler_packs_every_chunk_once_and_reshuffles():
         assert sorted(i for b in batches for i in b) == list(range(len(sizes)))
         assert all(sum(sizes[i] for i in b[:-1]) < 128 for b in batches)
     assert first != second
+
+
+class _ValidationProbe(pl.LightningModule):
+    """The smallest module Lightning trains: records, per epoch, how many batches it had trained
+    on when it was validated, and how many the epoch had."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.w = torch.nn.Parameter(torch.zeros(1))
+        self.batches = 0
+        self.validated_after: list[tuple[int, int]] = []
+        self.epoch_batches: list[tuple[int, int]] = []
+
+    def training_step(self, batch: torch.Tensor, _: int) -> torch.Tensor:
+        self.batches += 1
+        return (self.w - batch.float().mean()).pow(2).sum()
+
+    def validation_step(self, batch: torch.Tensor, _: int) -> None:
+        self.log("val_loss", (self.w - batch.float().mean()).pow(2).sum())
+
+    def on_validation_epoch_end(self) -> None:
+        self.validated_after.append((self.current_epoch, self.batches))
+
+    def on_train_epoch_end(self) -> None:
+        self.epoch_batches.append((self.current_epoch, self.batches))
+        self.batches = 0
+
+    def configure_optimizers(self) -> torch.optim.Optimizer:
+        return torch.optim.SGD(self.parameters(), lr=0.01)
+
+
+def test_every_epoch_is_validated_after_its_last_batch_although_batch_counts_vary(tmp_path):
+    sizes = [5, 100, 30, 256, 7, 80, 120, 60, 90, 3, 200, 40]
+    sampler = AssemblyBatchSampler(sizes, 128, shuffle=True, seed=1)
+    counts = [len(list(sampler)) for _ in range(8)]
+    assert min(counts[1:]) < counts[0] < max(counts[1:])  # shorter and longer epochs than the first
+
+    def loader(shuffle: bool) -> DataLoader:
+        sampler = AssemblyBatchSampler(sizes, 128, shuffle=shuffle, seed=1)
+        return DataLoader(range(len(sizes)), batch_sampler=sampler, collate_fn=torch.tensor)
+
+    probe = _ValidationProbe()
+    trainer = pl.Trainer(
+        max_epochs=8,
+        accelerator="cpu",
+        logger=False,
+        enable_checkpointing=False,
+        enable_progress_bar=False,
+        enable_model_summary=False,
+        num_sanity_val_steps=0,
+        default_root_dir=tmp_path,
+    )
+    trainer.fit(probe, loader(True), loader(False))
+    assert probe.epoch_batches == list(enumerate(counts))
+    assert probe.validated_after == probe.epoch_batches
 
 
 @pytest.mark.parametrize("collate", [collate_dense, collate_graphs])
