@@ -29,7 +29,7 @@ from omegaconf import MISSING, DictConfig
 
 from grace.data.atomic import write_text_atomic
 from grace.domain.sample import LabelledAssembly
-from grace.graphs.datamodule import StateDataset
+from grace.graphs.datamodule import AssemblyBatchSampler, StateDataset
 from grace.model.grace_pyg import count_parameters
 from grace.model.impls import FastImpl, NetImpl, PygImpl
 from grace.model.loss import grace_loss
@@ -72,13 +72,11 @@ def bench_assemblies(
 
 
 def _batches(dataset: StateDataset, batch_size: int) -> list[list[int]]:
-    batches, current, count = [], [], 0
-    for k, (_, states, *_) in enumerate(dataset.chunks):
-        current.append(k)
-        count += len(states)
-        if count >= batch_size:
-            batches.append(current)
-            current, count = [], 0
+    """The training sampler's batches in chunk order, without a short last one (timed steps
+    should all hold ≈`batch_size` states)."""
+    sizes = dataset.chunk_sizes()
+    packed = AssemblyBatchSampler(sizes, batch_size, shuffle=False, seed=0)
+    batches = [b for b in packed if sum(sizes[k] for k in b) >= batch_size]
     if not batches:
         raise RuntimeError("bench: too few states for one training batch; raise task.assemblies")
     return batches
