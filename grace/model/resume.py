@@ -4,9 +4,9 @@ Lightning's checkpoint restores the weights, optimiser, lr scheduler, loop count
 callbacks' states (early stopping, best checkpoint), and the DataModule restores its shuffling
 (grace/graphs/datamodule.py). The global random generators it does not keep: this callback adds
 them, so anything drawn from them during training (dropout, sampling) continues as in an
-uninterrupted run. Lightning 2.6 writes `last.ckpt` when it writes the best checkpoint (an epoch
-that improved the monitor), so a resumed fit repeats the epochs after the best one, drawing the
-same numbers, and ends with the weights of an uninterrupted fit.
+uninterrupted run. `last.ckpt` is written after every epoch (`callbacks.last_checkpoint`), so a
+resumed fit goes on with the epoch after the last finished one and ends with the weights of an
+uninterrupted fit.
 """
 
 from __future__ import annotations

@@ -118,20 +118,28 @@ def _results_keys(node: dict) -> dict:
     return node
 
 
+def _last_checkpoint(callbacks: Sequence[object]) -> Path | None:
+    """Where the configured callbacks write the checkpoint of the latest epoch, or None.
+
+    Our `last_checkpoint` (an unmonitored ModelCheckpoint named `last`) or Lightning's
+    `save_last` of any ModelCheckpoint (which writes it only in epochs that write a best one).
+    """
+    for c in callbacks:
+        if not isinstance(c, ModelCheckpoint) or c.dirpath is None:
+            continue
+        if c.save_last or (c.monitor is None and c.filename == c.CHECKPOINT_NAME_LAST):
+            return Path(c.dirpath) / f"{c.CHECKPOINT_NAME_LAST}{c.FILE_EXTENSION}"
+    return None
+
+
 def resume_from(cfg: DictConfig, out_dir: str | Path, callbacks: Sequence[object]) -> str | None:
     """The `last.ckpt` that a killed run of this config left in `out_dir`, or None.
 
     Called before keep_config overwrites `out_dir/config.yaml`: a last checkpoint whose run kept
     another config is a UserError, since resuming it would mix two experiments.
     """
-    saving = [c for c in callbacks if isinstance(c, ModelCheckpoint) and c.save_last]
-    if not saving or saving[0].dirpath is None:
-        return None
-    checkpoint = saving[0]
-    last = (
-        Path(checkpoint.dirpath) / f"{checkpoint.CHECKPOINT_NAME_LAST}{checkpoint.FILE_EXTENSION}"
-    )
-    if not last.exists():
+    last = _last_checkpoint(callbacks)
+    if last is None or not last.exists():
         return None
     record = Path(out_dir) / KEPT_CONFIG
     before = OmegaConf.to_container(OmegaConf.load(record)) if record.exists() else None

@@ -71,3 +71,18 @@ def test_a_checkpoint_of_another_config_is_refused(cfg_factory, samples, tmp_pat
     other = cfg_factory(*SETTINGS, "model.optimizer.lr=0.01")
     with pytest.raises(UserError, match=r"last\.ckpt was written by a run of another config"):
         _fit(other, train, val, run)
+
+
+def test_last_ckpt_holds_the_latest_epoch_even_when_it_was_not_the_best(
+    cfg_factory, samples, tmp_path
+):
+    """A resume goes on after the last finished epoch instead of repeating the epochs since the
+    best one (at lr 0 the validation loss never improves after epoch 0)."""
+    cfg = cfg_factory(*SETTINGS, "model.optimizer.lr=0")
+    with pytest.raises(Killed):
+        _fit(cfg, samples[:5], samples[5:], tmp_path, callbacks=[KillAt(3)])
+    best, last = (
+        torch.load(tmp_path / "checkpoints" / f"{name}.ckpt", weights_only=False)["epoch"]
+        for name in ("best", "last")
+    )
+    assert (best, last) == (0, 2)
