@@ -8,9 +8,13 @@ them before the per-state InstanceNorm, tanh and head. The surface graph is comp
 attention runs on dense (assemblies × surfaces × surfaces) tensors. Same parameters as
 :class:`GraceNet` (equality with the PyG path is tested to 1e-5).
 
-The non-paper variant `state_blocks = k` (grace_pyg.NetConfig) shares only the first
-`surface_blocks − k` blocks across states; the last k blocks and the part block run once per
-state, still on dense tensors (one row per state).
+The non-paper variant `state_blocks = k` (grace_pyg.NetConfig) shares the first
+`surface_blocks − k` blocks across states. The first state-aware block sees the state only
+through one 0/1 flag per surface (its part's), added to a shared input: its attention logit for a
+surface pair takes one of four values, by the two flags, all computed once per assembly
+(:class:`FlagAttention`), so a state costs a selection, a softmax and one matrix product instead
+of its own (surfaces × surfaces × hidden) pair tensor. The further k − 1 blocks and the part
+block run once per state, on dense tensors (one row per state).
 """
 
 from __future__ import annotations
@@ -83,25 +87,58 @@ def _ownership(dense: DenseAssemblies, dtype: torch.dtype) -> torch.Tensor:
     return (own & dense.surface_mask.unsqueeze(1)).to(dtype)
 
 
+def _part_inputs(
+    net: GraceNet, dense: DenseAssemblies, surfaces: torch.Tensor
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """The part conv's flag-free terms: lin_l of the surfaces (A, S, H), lin_r of each
+    surface's part without its flag (A, S, H), and surface ownership (A, N, S)."""
+    gat = net.part_gat
+    xl = gat.lin_l(surfaces)
+    w = gat.lin_r.weight
+    xr_static = F.linear(dense.part_static, w[:, 1:], gat.lin_r.bias)  # (A, N, H)
+    idx = dense.surface_part.unsqueeze(-1).expand(-1, -1, xr_static.shape[-1])
+    return xl, torch.gather(xr_static, 1, idx), _ownership(dense, xl.dtype)
+
+
+def _part_outputs(
+    net: GraceNet, z: torch.Tensor, xl: torch.Tensor, own: torch.Tensor
+) -> torch.Tensor:
+    """Part-conv outputs (..., A, N, H) from the pre-activation `z` (..., A, S, H)."""
+    gat = net.part_gat
+    score = F.leaky_relu_(z, gat.negative_slope) @ gat.att[0, 0]  # (..., A, S)
+    # A part attends to its own surfaces only: the others get exp(−huge) = 0.
+    score = score.unsqueeze(-2) + (1.0 - own) * _MASKED  # (..., A, N, S)
+    return (torch.softmax(score, dim=-1) * own) @ xl + gat.bias
+
+
 def part_block_pair(
     net: GraceNet, dense: DenseAssemblies, surfaces: torch.Tensor
 ) -> tuple[torch.Tensor, torch.Tensor]:
     """Part-conv outputs (A, N, hidden) for every part unplaced (flag 0) and placed (flag 1)."""
-    gat = net.part_gat
-    xl = gat.lin_l(surfaces)  # (A, S, H)
-    w = gat.lin_r.weight
-    xr_static = F.linear(dense.part_static, w[:, 1:], gat.lin_r.bias)  # (A, N, H)
-    idx = dense.surface_part.unsqueeze(-1).expand(-1, -1, xr_static.shape[-1])
-    xr_of_surface = torch.gather(xr_static, 1, idx)  # (A, S, H)
-    own = _ownership(dense, xl.dtype)
+    xl, xr_of_surface, own = _part_inputs(net, dense, surfaces)
+    w0 = net.part_gat.lin_r.weight[:, 0]
     # Both flag values at once, along a leading dimension of 2: flag 0 adds nothing.
-    flag_w = torch.stack([torch.zeros_like(w[:, 0]), w[:, 0]]).view(2, 1, 1, -1)
-    z = (xl + xr_of_surface).unsqueeze(0) + flag_w  # (2, A, S, H)
-    score = F.leaky_relu_(z, gat.negative_slope) @ gat.att[0, 0]  # (2, A, S)
-    # A part attends to its own surfaces only: the others get exp(−huge) = 0.
-    score = score.unsqueeze(2) + (1.0 - own) * _MASKED  # (2, A, N, S)
-    out = (torch.softmax(score, dim=-1) * own) @ xl + gat.bias  # (2, A, N, H)
+    flag_w = torch.stack([torch.zeros_like(w0), w0]).view(2, 1, 1, -1)
+    out = _part_outputs(net, (xl + xr_of_surface).unsqueeze(0) + flag_w, xl, own)
     return out[0], out[1]
+
+
+def part_block_states(
+    net: GraceNet, rows: DenseAssemblies, surfaces: torch.Tensor, owner_flag: torch.Tensor
+) -> torch.Tensor:
+    """Part-conv outputs (T, N, hidden) of one state per row, `owner_flag` (T, S) the flag of
+    each surface's part: only the state's own flags, where the pair above computes both."""
+    xl, xr_of_surface, own = _part_inputs(net, rows, surfaces)
+    w0 = net.part_gat.lin_r.weight[:, 0]
+    return _part_outputs(
+        net, torch.addcmul(xl + xr_of_surface, owner_flag.unsqueeze(-1), w0), xl, own
+    )
+
+
+def part_norm(net: GraceNet, h: torch.Tensor, part_mask: torch.Tensor) -> torch.Tensor:
+    """The part block's InstanceNorm over each state's real parts, then tanh."""
+    weights = _norm_weights(part_mask, h.dtype)
+    return torch.tanh(_masked_instance_norm(h, weights, net.part_norm))
 
 
 def state_part_features(
@@ -117,26 +154,80 @@ def state_part_features(
     """
     out0, out1 = pair[0][state_assembly], pair[1][state_assembly]
     h = torch.addcmul(out0, flags.unsqueeze(-1), out1 - out0)
-    weights = _norm_weights(part_mask[state_assembly], h.dtype)
-    return torch.tanh(_masked_instance_norm(h, weights, net.part_norm))
+    return part_norm(net, h, part_mask[state_assembly])
+
+
+@dataclass
+class FlagAttention:
+    """What the first state-aware surface block shares across the states of an assembly.
+
+    Its input is [flag, static]: lin_l and lin_r are each the static part plus flag × one weight
+    column, so GATv2's logit LeakyReLU(xr_dst + xl_src + e) @ att of a surface pair depends on
+    the state only through the two flags.
+    """
+
+    logits: torch.Tensor  # (A, S, S, 4) attention logit for (dst flag, src flag) = 2·dst + src
+    values: torch.Tensor  # (A, S, hidden) lin_l of the static input (flag 0)
+
+
+def flag_attention(net: GraceNet, dense: DenseAssemblies, static: torch.Tensor) -> FlagAttention:
+    """The four attention logits of every surface pair of the first state-aware block."""
+    gat = net.surface_gat(net.cfg.first_state_block)
+    wl, wr = gat.lin_l.weight, gat.lin_r.weight
+    xl = F.linear(static, wl[:, 1:], gat.lin_l.bias)
+    xr = F.linear(static, wr[:, 1:], gat.lin_r.bias)
+    z = (xr.unsqueeze(2) + xl.unsqueeze(1)).addcmul_(
+        dense.relation.unsqueeze(-1), gat.lin_edge.weight[:, 0]
+    )
+    att = gat.att[0, 0]
+    shifts = (None, wl[:, 0], wr[:, 0], wr[:, 0] + wl[:, 0])  # by 2·dst flag + src flag
+    logits = [
+        F.leaky_relu(z if shift is None else z + shift, gat.negative_slope) @ att
+        for shift in shifts
+    ]
+    return FlagAttention(torch.stack(logits, dim=-1), xl)
+
+
+def first_state_block(
+    net: GraceNet,
+    rows: DenseAssemblies,
+    shared: FlagAttention,
+    state_assembly: torch.Tensor,
+    owner_flag: torch.Tensor,
+) -> torch.Tensor:
+    """Surface features (T, S, hidden) after the first state-aware block for T states, from
+    `shared`; `rows` holds one row per state, `owner_flag` (T, S) each surface's part flag."""
+    gat = net.surface_gat(net.cfg.first_state_block)
+    t, s = owner_flag.shape
+    # Flat index into logits (A, S, S, 4): one gather, no (T, S, S, 4) copy.
+    pair = torch.arange(s * s).view(1, s, s) * 4
+    choice = (2 * owner_flag.unsqueeze(2) + owner_flag.unsqueeze(1)).long()
+    index = state_assembly.view(t, 1, 1) * (s * s * 4) + pair + choice
+    padding = (~rows.surface_mask).to(owner_flag.dtype).unsqueeze(1) * _MASKED
+    attention = torch.softmax(torch.take(shared.logits, index) + padding, dim=-1)  # (T, S, S)
+    out = attention @ shared.values[state_assembly]
+    out = out + (attention @ owner_flag.unsqueeze(-1)) * gat.lin_l.weight[:, 0] + gat.bias
+    weights = _norm_weights(rows.surface_mask, out.dtype)
+    norm = net.surface_norms[net.cfg.first_state_block]
+    return torch.tanh(_masked_instance_norm(out, weights, norm)) * weights[0]
 
 
 def per_state(
-    dense: DenseAssemblies, state_assembly: torch.Tensor, flags: torch.Tensor, static: torch.Tensor
-) -> DenseAssemblies:
-    """One row per state: its assembly's `static` surface features prefixed with the flag of
-    each surface's part, the input of the first state-aware block (`state_blocks`)."""
+    dense: DenseAssemblies, state_assembly: torch.Tensor, flags: torch.Tensor
+) -> tuple[DenseAssemblies, torch.Tensor]:
+    """One row per state (its assembly's tensors) and the flag of each surface's part, (T, S)."""
     surface_part = dense.surface_part[state_assembly]
     surface_mask = dense.surface_mask[state_assembly]
     owner_flag = torch.gather(flags, 1, surface_part) * surface_mask
-    return DenseAssemblies(
-        surface_x=torch.cat([owner_flag.unsqueeze(-1), static[state_assembly]], dim=-1),
+    rows = DenseAssemblies(
+        surface_x=dense.surface_x[state_assembly],
         relation=dense.relation[state_assembly],
         surface_mask=surface_mask,
         surface_part=surface_part,
         part_static=dense.part_static[state_assembly],
         part_mask=dense.part_mask[state_assembly],
     )
+    return rows, owner_flag
 
 
 @dataclass
@@ -145,6 +236,7 @@ class SharedWork:
 
     static: torch.Tensor  # (A, S, ·) state-blind surface features
     pair: tuple[torch.Tensor, torch.Tensor] | None  # both part-block variants (no state_blocks)
+    flag_attention: FlagAttention | None  # the first state-aware block's logits (state_blocks)
     relations: torch.Tensor | None  # (A, N, N, pair_readout) part-pair features, if any
 
 
@@ -163,9 +255,12 @@ def pair_relations(net: GraceNet, dense: DenseAssemblies, static: torch.Tensor) 
 def shared_work(net: GraceNet, dense: DenseAssemblies) -> SharedWork:
     """Compute the state-independent part of the network once for `dense`."""
     static = surface_embedding(net, dense)
-    pair = None if net.cfg.state_blocks else part_block_pair(net, dense, static)
+    if net.cfg.state_blocks:
+        pair, flags = None, flag_attention(net, dense, static)
+    else:
+        pair, flags = part_block_pair(net, dense, static), None
     relations = pair_relations(net, dense, static) if net.cfg.pair_readout else None
-    return SharedWork(static, pair, relations)
+    return SharedWork(static, pair, flags, relations)
 
 
 def pair_readout(
@@ -204,11 +299,10 @@ def state_features(
     if shared.pair is not None:
         h = state_part_features(net, shared.pair, dense.part_mask, state_assembly, flags)
     else:
-        rows = per_state(dense, state_assembly, flags, shared.static)
-        blocks = range(cfg.first_state_block, cfg.surface_blocks)
-        pair = part_block_pair(net, rows, run_surface_blocks(net, rows, rows.surface_x, blocks))
-        index = torch.arange(len(flags))
-        h = state_part_features(net, pair, rows.part_mask, index, flags)
+        rows, owner_flag = per_state(dense, state_assembly, flags)
+        x = first_state_block(net, rows, shared.flag_attention, state_assembly, owner_flag)
+        x = run_surface_blocks(net, rows, x, range(cfg.first_state_block + 1, cfg.surface_blocks))
+        h = part_norm(net, part_block_states(net, rows, x, owner_flag), rows.part_mask)
     if shared.relations is not None:
         h = pair_readout(net, shared.relations, state_assembly, flags, h)
     return h
