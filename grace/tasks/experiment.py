@@ -243,6 +243,7 @@ def run(cfg: DictConfig) -> float:
         "run": {
             "model": OmegaConf.select(cfg, "model.name"),
             "seed": cfg.seed,
+            "data_seed": OmegaConf.select(cfg, "dataset.seed"),  # None for raw data
             "overrides": task_overrides(),
         },
     }

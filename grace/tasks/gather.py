@@ -5,7 +5,11 @@ folder: Table 2 (intra-sized beside many-to-one, one column per test size; stric
 as in results.md), Table 3 (one-to-many: a row per training size, with the strict P@1 beside the
 paper's two AUCs). Runs that differ in anything but the protocol and its sizes (a model
 variant, as in the ablation sweep) get their own block of rows, labelled by those overrides;
-baselines appear as variants of their own.
+baselines appear as variants of their own. Runs that differ only in `seed` (or `dataset.seed`)
+are replicates, not variants: their cells pool them (mean ± std over the runs' fold means,
+counts summed) and the block's label says how many seeds, e.g. the `seeds` sweep
+(`python -m grace -m seed=0,1,2 dataset.seed=0`: training seeds on one data set) gathers into
+one block.
 """
 
 from __future__ import annotations
@@ -15,12 +19,13 @@ import logging
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from omegaconf import MISSING, DictConfig
 
 from grace.data.atomic import write_text_atomic
 from grace.errors import UserError
-from grace.evaluation.report import METRIC_ROWS, cell, lookup
+from grace.evaluation.report import METRIC_ROWS, cell, lookup, mean_std
 from grace.tasks.runner import TaskSettings
 
 log = logging.getLogger(__name__)
@@ -35,6 +40,15 @@ class GatherSettings(TaskSettings):
 
 SIZE_KEYS = ("protocol", "test_size", "train_size")
 """Overrides that choose the protocol and its sizes, not a variant."""
+
+REPLICATE_KEYS = ("seed", "dataset.seed")
+"""Overrides that repeat a run rather than vary it: such runs are pooled."""
+
+
+def _replicate(results: dict) -> tuple:
+    """Which repeat a run is: its training seed and its data set's (absent in older runs)."""
+    run = results.get("run", {})
+    return run.get("seed"), run.get("data_seed")
 
 
 def find_results(roots: Iterable[str | Path]) -> list[Path]:
@@ -54,7 +68,8 @@ def _variant_overrides(results: dict) -> dict[str, str]:
     out = {}
     for override in results.get("run", {}).get("overrides", []):
         key, _, value = override.partition("=")
-        if key.lstrip("+~").split(".")[0] not in SIZE_KEYS:
+        key = key.lstrip("+~")
+        if key.split(".")[0] not in SIZE_KEYS and key not in REPLICATE_KEYS:
             out[key] = value
     return out
 
@@ -71,23 +86,68 @@ def variants(runs: list[dict]) -> list[str]:
     return [" ".join(f"{k}={o[k]}" for k in varying if k in o) or "GRACE" for o in overrides]
 
 
+def pool(entries: list[Any]) -> Any:
+    """Entries of runs that differ only in their seed, as one: a metric ({"mean", "std"}) becomes
+    the mean ± std over the runs' means with the number of `runs`; counts are summed."""
+    first = entries[0]
+    if len(entries) == 1:
+        return first
+    if isinstance(first, dict) and "mean" in first:
+        stat = mean_std([e["mean"] for e in entries])
+        if stat is None:
+            return None
+        stat["runs"] = len(entries)
+        for count in ("assemblies", "empty"):
+            if all(count in e for e in entries):
+                stat[count] = sum(e[count] for e in entries)
+        return stat
+    if isinstance(first, dict):
+        keys = [k for k in first if all(isinstance(e, dict) and k in e for e in entries)]
+        pooled = {k: pool([e[k] for e in entries]) for k in keys}
+        return {k: v for k, v in pooled.items() if v is not None}
+    if all(isinstance(e, int) for e in entries):
+        return sum(entries)
+    return first
+
+
 def collect(paths: Iterable[Path]) -> dict:
-    """Per variant: {"table2": {protocol: {size: entry}}, "table3": {train size: {size: entry}}}."""
+    """Per variant: {"table2": {protocol: {size: entry}}, "table3": {train size: {size: entry}}}.
+
+    A variant run with several seeds is labelled "<variant> (<n> seeds)", its entries pooled.
+    """
     runs = [json.loads(Path(path).read_text()) for path in paths]
-    table2: dict[str, dict] = {}
-    table3: dict[str, dict] = {}
+    tables: dict[str, dict] = {"table2": {}, "table3": {}}
+    seeds: dict[str, set] = {}
     for results, label in zip(runs, variants(runs), strict=True):
         policies = {label: results["per_size"]}
         for name, baseline in results.get("baselines", {}).items():
             policies[name] = baseline["per_size"]
-        protocol = results["protocol"]
+        if results["protocol"] == "one_to_many":
+            table, key = "table3", "+".join(str(s) for s in results["train_sizes"])
+        else:
+            table, key = "table2", results["protocol"]
+        seed = _replicate(results)
         for name, per_size in policies.items():
-            if protocol == "one_to_many":
-                train = "+".join(str(s) for s in results["train_sizes"])
-                table3.setdefault(name, {}).setdefault(train, {}).update(per_size)
-            else:
-                table2.setdefault(name, {}).setdefault(protocol, {}).update(per_size)
-    return {"table2": table2, "table3": table3}
+            seeds.setdefault(name, set()).add(seed)
+            block = tables[table].setdefault(name, {}).setdefault(key, {})
+            for size, entry in per_size.items():
+                # One entry per seed: a baseline recurs unchanged in every variant's run.
+                block.setdefault(size, {})[seed] = entry
+
+    def label(name: str) -> str:
+        n = len(seeds[name])
+        return f"{name} ({n} seeds)" if n > 1 else name
+
+    return {
+        table: {
+            label(name): {
+                key: {size: pool(list(by_seed.values())) for size, by_seed in block.items()}
+                for key, block in by_key.items()
+            }
+            for name, by_key in by_name.items()
+        }
+        for table, by_name in tables.items()
+    }
 
 
 def _sizes(blocks: Iterable[dict]) -> list[str]:
@@ -130,7 +190,10 @@ def table3_markdown(table3: dict) -> str:
 
 
 def gather_markdown(tables: dict, n_runs: int) -> str:
-    parts = [f"# Gathered results ({n_runs} runs, mean ± std over folds)"]
+    parts = [
+        f"# Gathered results ({n_runs} runs; mean ± std over folds, or over the seeds' fold means "
+        "in a block of several seeds)"
+    ]
     if tables["table2"]:
         parts += ["## Table 2: intra-sized and many-to-one", table2_markdown(tables["table2"])]
     if tables["table3"]:

@@ -44,3 +44,40 @@ def test_table3_sweep_runs_both_models_and_gathers(tmp_path):
     table = (gathered / "gather.md").read_text()
     assert "## Table 3: one-to-many" in table
     assert "| model=grace | A4 |" in table and "| model=grace_relational | A4 |" in table
+
+
+@pytest.mark.slow
+def test_seed_sweep_keeps_the_data_and_gathers_into_one_pooled_block(tmp_path):
+    sweep = tmp_path / "sweep"
+    common = [f"paths.data_dir={tmp_path / 'data'}"]
+    subprocess.run(
+        [
+            *(sys.executable, "-m", "grace", "--config-dir", "sweeps", "--config-name", "seeds"),
+            *("scale=smoke", "protocol.folds=2", "trainer.max_epochs=1"),
+            f"hydra.sweep.dir={sweep}",
+            *common,
+        ],
+        cwd=ROOT,
+        check=True,
+        capture_output=True,
+        timeout=300,
+    )
+    runs = [json.loads(p.read_text()) for p in sorted(sweep.glob("*/results.json"))]
+    assert sorted(r["run"]["seed"] for r in runs) == [0, 1, 2]
+    assert {r["run"]["data_seed"] for r in runs} == {0}
+    assert len(list((tmp_path / "data").iterdir())) == 1  # one data set for every seed
+    gathered = tmp_path / "gather"
+    subprocess.run(
+        [
+            *(sys.executable, "-m", "grace", "task=gather", f"task.roots=[{sweep}]"),
+            f"hydra.run.dir={gathered}",
+            *common,
+        ],
+        cwd=ROOT,
+        check=True,
+        capture_output=True,
+        timeout=120,
+    )
+    table2 = json.loads((gathered / "gather.json").read_text())["table2"]
+    pooled = table2["GRACE (3 seeds)"]["intra"]
+    assert all(entry["step_auc"]["runs"] == 3 for entry in pooled.values())
