@@ -10,37 +10,37 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 
 
+def grace(*args: str, timeout: int) -> None:
+    """`python -m grace` with the args, from the repository (where `sweeps/` lies)."""
+    subprocess.run(
+        [sys.executable, "-m", "grace", *args],
+        cwd=ROOT,
+        check=True,
+        capture_output=True,
+        timeout=timeout,
+    )
+
+
+def gather(sweep: Path, out: Path, common: list[str]) -> None:
+    grace("task=gather", f"task.roots=[{sweep}]", f"hydra.run.dir={out}", *common, timeout=120)
+
+
 @pytest.mark.slow
 def test_table3_sweep_runs_both_models_and_gathers(tmp_path):
     sweep = tmp_path / "sweep"
     common = [f"paths.data_dir={tmp_path / 'data'}"]
-    subprocess.run(
-        [
-            *(sys.executable, "-m", "grace", "--config-dir", "sweeps", "--config-name", "table3"),
-            *("scale=smoke", "protocol.folds=2", "trainer.max_epochs=1", "train_size=4"),
-            f"hydra.sweep.dir={sweep}",
-            *common,
-        ],
-        cwd=ROOT,
-        check=True,
-        capture_output=True,
+    grace(
+        *("--config-dir", "sweeps", "--config-name", "table3"),
+        *("scale=smoke", "protocol.folds=2", "trainer.max_epochs=1", "train_size=4"),
+        f"hydra.sweep.dir={sweep}",
+        *common,
         timeout=300,
     )
     runs = sorted(sweep.glob("*/results.json"))
     models = {json.loads(p.read_text())["run"]["model"] for p in runs}
     assert len(runs) == 2 and models == {"grace", "grace_relational"}
     gathered = tmp_path / "gather"
-    subprocess.run(
-        [
-            *(sys.executable, "-m", "grace", "task=gather", f"task.roots=[{sweep}]"),
-            f"hydra.run.dir={gathered}",
-            *common,
-        ],
-        cwd=ROOT,
-        check=True,
-        capture_output=True,
-        timeout=120,
-    )
+    gather(sweep, gathered, common)
     table = (gathered / "gather.md").read_text()
     assert "## Table 3: one-to-many" in table
     assert "| model=grace | A4 |" in table and "| model=grace_relational | A4 |" in table
@@ -50,16 +50,11 @@ def test_table3_sweep_runs_both_models_and_gathers(tmp_path):
 def test_seed_sweep_keeps_the_data_and_gathers_into_one_pooled_block(tmp_path):
     sweep = tmp_path / "sweep"
     common = [f"paths.data_dir={tmp_path / 'data'}"]
-    subprocess.run(
-        [
-            *(sys.executable, "-m", "grace", "--config-dir", "sweeps", "--config-name", "seeds"),
-            *("scale=smoke", "protocol.folds=2", "trainer.max_epochs=1"),
-            f"hydra.sweep.dir={sweep}",
-            *common,
-        ],
-        cwd=ROOT,
-        check=True,
-        capture_output=True,
+    grace(
+        *("--config-dir", "sweeps", "--config-name", "seeds"),
+        *("scale=smoke", "protocol.folds=2", "trainer.max_epochs=1"),
+        f"hydra.sweep.dir={sweep}",
+        *common,
         timeout=300,
     )
     runs = [json.loads(p.read_text()) for p in sorted(sweep.glob("*/results.json"))]
@@ -67,17 +62,7 @@ def test_seed_sweep_keeps_the_data_and_gathers_into_one_pooled_block(tmp_path):
     assert {r["run"]["data_seed"] for r in runs} == {0}
     assert len(list((tmp_path / "data").iterdir())) == 1  # one data set for every seed
     gathered = tmp_path / "gather"
-    subprocess.run(
-        [
-            *(sys.executable, "-m", "grace", "task=gather", f"task.roots=[{sweep}]"),
-            f"hydra.run.dir={gathered}",
-            *common,
-        ],
-        cwd=ROOT,
-        check=True,
-        capture_output=True,
-        timeout=120,
-    )
+    gather(sweep, gathered, common)
     table2 = json.loads((gathered / "gather.json").read_text())["table2"]
     pooled = table2["GRACE (3 seeds)"]["intra"]
     assert all(entry["step_auc"]["runs"] == 3 for entry in pooled.values())
