@@ -2,7 +2,9 @@
 
 Every assembly's reachable states are scored once (λ = 0, ≤ 2^N − 1 forward passes) and every
 metric reads that one table: the λ sweep counts sequences by dynamic programming, P@k runs the
-best-first top-k search on the table, the feasibility schemes read the best complete sequence,
+best-first top-k search on the table (A*, guided by the exact completion bounds: without them a
+policy of near-equal scores, the `constant` floor, makes plain best-first search expand every
+prefix, N! at worst), the feasibility schemes read the best complete sequence,
 the failure analysis counts first false steps.
 
 Step AUC reads two state sets (grace/evaluation/step_states.py): the paper's, on the ground-truth
@@ -36,7 +38,7 @@ from grace.evaluation.metrics import (
 from grace.evaluation.step_states import label_matrix, offpath_states, onpath_states
 from grace.planning.counting import label_table, retrieval_counts
 from grace.planning.sequences import ScoredStates, Scorer, score_states
-from grace.planning.topk import table_scores, top_k
+from grace.planning.topk import completion_bounds, table_scores, top_k
 
 
 @dataclass(eq=False)
@@ -78,7 +80,7 @@ def evaluate_assembly(
     on_states, on_masks = onpath_states(truth)
     off_states, off_masks = offpath_states(truth)
     table, extra = _step_table(scorer, sample, scored, np.concatenate([on_states, off_states]))
-    best = top_k(table_scores(scored), n, k_max, threshold)
+    best = top_k(table_scores(scored), n, k_max, threshold, completion_bounds(scored, threshold))
     valid = label_table(truth)
     return AssemblyEval(
         size=n,

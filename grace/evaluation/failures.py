@@ -16,6 +16,7 @@ infeasible assemblies are counted apart (FAILURE_KINDS).
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -53,38 +54,34 @@ def first_false_steps(
     n = scored.n_parts
     full = full_mask(n)
     table = scored.table
-    passes = np.nan_to_num(table, nan=-np.inf) >= threshold
+    passes = table >= threshold  # NaN (not scored) never passes
+    levels = state_levels(n)
     completions = np.zeros(full + 1, dtype=np.int64)
     completions[full] = 1
-    for level in reversed(state_levels(n)):
-        for part in range(n):
-            states = level[(level >> part & 1) == 0]
-            go = passes[states, part]
-            completions[states[go]] += completions[states[go] | np.int64(1) << part]
+    for level in reversed(levels[:-1]):
+        go = passes[level.states[:, None], level.unplaced]
+        completions[level.states] = (completions[level.children] * go).sum(axis=1)
     valid = label_table(truth)
     prefixes = np.zeros(full + 1, dtype=np.int64)
     prefixes[0] = 1
     out = []
-    for level in state_levels(n):
-        level = level[prefixes[level] > 0]
-        for part in range(n):
-            states = level[(level >> part & 1) == 0]
-            states = states[passes[states, part]]
-            child = states | np.int64(1) << part
-            good = (valid[states] >> part & 1) == 1
-            np.add.at(prefixes, child[good], prefixes[states[good]])
-            for state, c in zip(states[~good], child[~good], strict=True):
-                count = int(prefixes[state] * completions[c])
-                if count:
-                    out.append(
-                        FalseStep(
-                            int(state),
-                            part,
-                            int(state).bit_count() + 1,
-                            float(table[state, part]),
-                            count,
-                        )
-                    )
+    for level, above in itertools.pairwise(levels):
+        states, parts = level.states[:, None], level.unplaced
+        wrong = passes[states, parts] & (valid[states] >> parts & 1 == 0)
+        counts = prefixes[states] * completions[level.children] * wrong
+        rows, cols = np.nonzero(counts)
+        for r, c in sorted(
+            zip(rows.tolist(), cols.tolist(), strict=True), key=lambda rc: parts[rc]
+        ):
+            state, part = int(level.states[r]), int(parts[r, c])
+            out.append(
+                FalseStep(
+                    state, part, state.bit_count() + 1, float(table[state, part]), int(counts[r, c])
+                )
+            )
+        parents, placed = above.parents, above.placed
+        good = passes[parents, placed] & (valid[parents] >> placed & 1 == 1)
+        prefixes[above.states] = (prefixes[parents] * good).sum(axis=1)
     return out
 
 

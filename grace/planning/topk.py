@@ -62,12 +62,10 @@ def completion_bounds(scored: ScoredStates, threshold: float) -> np.ndarray:
     n = scored.n_parts
     best = np.zeros(full_mask(n) + 1)
     best[full_mask(n)] = 1.0
-    for level in reversed(state_levels(n)):
-        for part in range(n):
-            states = level[(level >> part & 1) == 0]
-            step = scored.table[states, part]
-            step = np.where(step >= threshold, step, 0.0)  # NaN (not scored) never passes
-            best[states] = np.maximum(best[states], step * best[states | np.int64(1) << part])
+    for level in reversed(state_levels(n)[:-1]):
+        step = scored.table[level.states[:, None], level.unplaced]
+        step = np.where(step >= threshold, step, 0.0)  # NaN (not scored) never passes
+        best[level.states] = (step * best[level.children]).max(axis=1)
     return best
 
 

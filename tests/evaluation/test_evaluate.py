@@ -105,6 +105,19 @@ def test_constant_policy_retrieves_everything_at_or_below_one_half():
     assert summary["step_auc"] == pytest.approx((1 + 5 / 8) / 2)
 
 
+def test_constant_policy_top_k_is_lexicographic_without_expanding_every_prefix():
+    # 9 parts, every order equally probable under the constant policy: ties go lexicographically,
+    # (0, …, 6, 7, 8), then (0, …, 6, 8, 7), then (0, …, 5, 7, 6, 8); only part 8 last is valid.
+    # Plain best-first search would expand all 9! = 362,880 prefixes before the first complete
+    # one; the bounded (A*) search walks straight to them.
+    n = 9
+    last_part_last = _sample(n, lambda s, p: p != n - 1 or s == (1 << (n - 1)) - 1)
+    result = evaluate_assembly(constant_scorer(0), last_part_last, k_max=3)
+    assert result.topk_relevant == [True, False, True]
+    first_part_last = _sample(n, lambda s, p: p != 0 or s == (1 << n) - 2)
+    assert evaluate_assembly(constant_scorer(0), first_part_last).topk_relevant == [False] * 3
+
+
 # One order (1, 0, 2); placing 0 first is feasible but leads to the dead end {0, 2}.
 DEAD_END_RULES = {0b000: (0, 1), 0b001: (2,), 0b010: (0,), 0b011: (2,)}
 DEAD_END = _sample(3, lambda s, p: p in DEAD_END_RULES.get(s, ()))
