@@ -10,7 +10,11 @@ Side by side in one run, same weights, `cfg.threads` threads:
   the PyG path has no shared work);
 - planning (grace.planning.bench): scoring every order of one A7 assembly via its
   distinct states versus the per-prefix recursion, with each path's scorer (untrained weights:
-  timing only; prefix passes capped at `task.prefix_passes` and extrapolated).
+  timing only; prefix passes capped at `task.prefix_passes` and extrapolated);
+- evaluation (grace.evaluation.evaluate): milliseconds per A7 assembly of everything an
+  experiment computes for one policy on one test assembly (every state scored, the λ sweep of the
+  sequence AUC, P@k, both step AUCs, the feasibility schemes, the first false steps), for GRACE
+  on the fast path (untrained weights) and every baseline of grace.evaluation.baselines.
 Writes `bench.json` into the run's output folder and returns the fast/PyG training speed-up.
 """
 
@@ -29,6 +33,8 @@ from omegaconf import MISSING, DictConfig
 
 from grace.data.atomic import write_text_atomic
 from grace.domain.sample import LabelledAssembly
+from grace.evaluation.baselines import BASELINES
+from grace.evaluation.evaluate import evaluate_by_size
 from grace.graphs.datamodule import AssemblyBatchSampler, StateDataset
 from grace.model.grace_pyg import count_parameters
 from grace.model.impls import FastImpl, NetImpl, PygImpl
@@ -36,6 +42,7 @@ from grace.model.loss import grace_loss
 from grace.model.module import GraceModule
 from grace.model.scoring import make_scorer
 from grace.planning.bench import planner_benchmark
+from grace.planning.sequences import Scorer
 from grace.tasks.runner import TaskSettings
 
 log = logging.getLogger(__name__)
@@ -126,6 +133,13 @@ def infer_ms_per_state(
     return 1000.0 * float(np.median(times))
 
 
+def evaluate_ms_per_assembly(scorer: Scorer, samples: list[LabelledAssembly]) -> float:
+    """Milliseconds per assembly of one policy's whole evaluation on `samples`."""
+    start = time.perf_counter()
+    evaluate_by_size(scorer, samples)
+    return 1000.0 * (time.perf_counter() - start) / len(samples)
+
+
 def run(cfg: DictConfig) -> float:
     out_dir = Path(cfg.paths.output_dir)
     rng = np.random.default_rng(int(cfg.seed))
@@ -162,6 +176,12 @@ def run(cfg: DictConfig) -> float:
         )
         for impl in IMPLS
     }
+    policies = {"GRACE": make_scorer(module, FastImpl())}
+    policies.update({name: make(int(cfg.seed)) for name, make in BASELINES.items()})
+    evaluation = {
+        name: {str(infer_size): evaluate_ms_per_assembly(scorer, infer)}
+        for name, scorer in policies.items()
+    }
     result = {
         "params": count_parameters(module.net),
         "train_graphs_per_s": speed,
@@ -169,6 +189,7 @@ def run(cfg: DictConfig) -> float:
         "infer_ms_per_state_warm": infer_warm,
         "speedup_train": speed["fast"] / speed["pyg"],
         "planning": planning,
+        "evaluate_ms_per_assembly": evaluation,
         "threads": torch.get_num_threads(),
         "batch_size": batch_size,
         "assemblies": {str(train_size): len(train), str(infer_size): len(infer)},

@@ -27,6 +27,8 @@ def test_bench_writes_side_by_side_figures(cfg_factory, fake_simulator):
     for impl in ("pyg", "fast"):
         assert bench["infer_ms_per_state"][impl]["7"] > 0
     assert bench["infer_ms_per_state_warm"]["fast"]["7"] > 0
+    assert set(bench["evaluate_ms_per_assembly"]) == {"GRACE", "random", "constant", "never"}
+    assert all(v["7"] > 0 for v in bench["evaluate_ms_per_assembly"].values())
     assert speedup == bench["train_graphs_per_s"]["fast"] / bench["train_graphs_per_s"]["pyg"]
     for impl in ("pyg", "fast"):
         planning = bench["planning"][impl]
