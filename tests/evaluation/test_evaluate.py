@@ -108,7 +108,7 @@ def test_constant_policy_retrieves_everything_at_or_below_one_half():
 def test_constant_policy_top_k_is_lexicographic_without_expanding_every_prefix():
     # 9 parts, every order equally probable under the constant policy: ties go lexicographically,
     # (0, …, 6, 7, 8), then (0, …, 6, 8, 7), then (0, …, 5, 7, 6, 8); only part 8 last is valid.
-    # Plain best-first search would expand all 9! = 362,880 prefixes before the first complete
+    # Plain best-first search would expand all 623,530 shorter prefixes before the first complete
     # one; the bounded (A*) search walks straight to them.
     n = 9
     last_part_last = _sample(n, lambda s, p: p != n - 1 or s == (1 << (n - 1)) - 1)
