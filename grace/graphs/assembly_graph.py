@@ -7,7 +7,10 @@ per-state heterogeneous PyG graph the reference network consumes:
 - surface nodes `[surface-type, PE(surface-id)]` (1 + 16 = 17 features),
 - ("surface", "near", "surface"): the complete graph over surfaces including self loops, one edge
   feature (the relation: parallel distances divided by `distance_scale`, self loop 0),
-- ("surface", "of", "part"): each surface to its own part, no feature.
+- ("surface", "of", "part"): each surface to its own part, no feature,
+- ("part", "pair", "part"): beyond the paper, every ordered pair of distinct parts with its
+  relative geometry (grace.graphs.pair_geometry), read only by a network with
+  `model.net.pair_geometry` > 0.
 """
 
 from __future__ import annotations
@@ -20,9 +23,11 @@ from torch_geometric.data import HeteroData
 
 from grace.domain.assembly import Assembly, Surface
 from grace.graphs.encoding import GraphEncoding, node_ids
+from grace.graphs.pair_geometry import pair_geometry
 
 SURFACE_EDGE = ("surface", "near", "surface")
 PART_EDGE = ("surface", "of", "part")
+PAIR_EDGE = ("part", "pair", "part")
 
 
 @dataclass(frozen=True)
@@ -33,6 +38,7 @@ class AssemblyTensors:
     surface_x: torch.Tensor  # (S, 1 + pe_dim): surface-type, PE(surface-id)
     relation: torch.Tensor  # (S, S): scaled relation, zero diagonal
     surface_part: torch.Tensor  # (S,) int64: owning part of every surface
+    pair_geometry: torch.Tensor  # (N, N, G): [m, n] part m seen from part n, zero diagonal
 
     @property
     def n_parts(self) -> int:
@@ -80,6 +86,9 @@ def encode_assembly(
         surface_x=torch.as_tensor(surface_x, dtype=torch.float32),
         relation=torch.as_tensor(relation, dtype=torch.float32),
         surface_part=torch.as_tensor(surface_part),
+        pair_geometry=torch.as_tensor(
+            pair_geometry(assembly, enc.distance_scale), dtype=torch.float32
+        ),
     )
 
 
@@ -100,6 +109,10 @@ def state_graph(tensors: AssemblyTensors, state: int) -> HeteroData:
     data[SURFACE_EDGE].edge_index = torch.stack([src.reshape(-1), dst.reshape(-1)])
     data[SURFACE_EDGE].edge_attr = tensors.relation.T.reshape(-1, 1)
     data[PART_EDGE].edge_index = torch.stack([torch.arange(s), tensors.surface_part])
+    src, dst = torch.meshgrid(torch.arange(n), torch.arange(n), indexing="ij")
+    other = src != dst
+    data[PAIR_EDGE].edge_index = torch.stack([src[other], dst[other]])
+    data[PAIR_EDGE].edge_attr = tensors.pair_geometry[other]
     return data
 
 

@@ -133,6 +133,7 @@ class StateBatch:
     labels: torch.Tensor  # (T, N) next-step targets in [0, 1] (1 = valid), 0 on padding
     mask: torch.Tensor  # (T, N) bool: real part nodes
     weights: torch.Tensor | None = None  # (T,) per-state loss weights; None = all 1
+    placeable: torch.Tensor | None = None  # (T, N) 1 where placing the part is feasible
 
     @property
     def n_states(self) -> int:
@@ -313,9 +314,10 @@ def make_loader(
             batch.weights = torch.from_numpy(
                 np.concatenate([np.concatenate(g[3]) for g in groups.values()])
             )
+        dead_ends = np.concatenate([np.concatenate(g[4]) for g in groups.values()])
+        graded = state_flags(dead_ends, batch.labels.shape[1]) * batch.mask
+        batch.placeable = batch.labels + graded
         if dataset.dead_end_target:
-            dead_ends = np.concatenate([np.concatenate(g[4]) for g in groups.values()])
-            graded = state_flags(dead_ends, batch.labels.shape[1]) * batch.mask
             batch.labels = batch.labels + dataset.dead_end_target * graded
         return batch
 

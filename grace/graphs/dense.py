@@ -19,6 +19,7 @@ class DenseAssemblies:
     surface_part: torch.Tensor  # (A, S) long, 0 on padding
     part_static: torch.Tensor  # (A, N, Fp - 1)
     part_mask: torch.Tensor  # (A, N) bool
+    pair_geometry: torch.Tensor  # (A, N, N, G): [a, m, n] part m seen from part n
 
     @classmethod
     def stack(cls, items: list[AssemblyTensors]) -> DenseAssemblies:
@@ -33,6 +34,7 @@ class DenseAssemblies:
             surface_part=torch.zeros(a, s, dtype=torch.long),
             part_static=torch.zeros(a, n, items[0].part_static.shape[1], dtype=dtype),
             part_mask=torch.zeros(a, n, dtype=torch.bool),
+            pair_geometry=torch.zeros(a, n, n, items[0].pair_geometry.shape[-1], dtype=dtype),
         )
         for i, t in enumerate(items):
             ns, nn_ = t.n_surfaces, t.n_parts
@@ -42,4 +44,5 @@ class DenseAssemblies:
             out.surface_part[i, :ns] = t.surface_part
             out.part_static[i, :nn_] = t.part_static
             out.part_mask[i, :nn_] = True
+            out.pair_geometry[i, :nn_, :nn_] = t.pair_geometry
         return out

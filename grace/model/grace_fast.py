@@ -226,6 +226,7 @@ def per_state(
         surface_part=surface_part,
         part_static=dense.part_static[state_assembly],
         part_mask=dense.part_mask[state_assembly],
+        pair_geometry=dense.pair_geometry[state_assembly],
     )
     return rows, owner_flag
 
@@ -243,15 +244,19 @@ class SharedWork:
 def pair_relations(net: GraceNet, dense: DenseAssemblies, static: torch.Tensor) -> torch.Tensor:
     """Part-pair features of the pair readout (grace_pyg.NetConfig), (A, N, N, pair_readout),
     source part first (`[a, m, n]` is what part n reads from part m: the layout that lets a state
-    sum over sources with contiguous slices): the mean over surface pairs of the two parts, 0 on
-    the diagonal and on padding."""
+    sum over sources with contiguous slices): the mean over surface pairs of the two parts, plus
+    the pair's geometry term if the net reads it, 0 on the diagonal and on padding."""
     z = net.pair_dst(static).unsqueeze(2) + net.pair_src(static).unsqueeze(1)
     z = F.leaky_relu_(z + net.pair_rel(dense.relation.unsqueeze(-1)), net.cfg.negative_slope)
     n = dense.part_mask.shape[1]
     own = _ownership(dense, z.dtype)
     own = own / own.sum(dim=-1, keepdim=True).clamp(min=1)  # mean over own surfaces
     relations = torch.einsum("ans,astc,amt->amnc", own, z, own)
-    return relations * (1 - torch.eye(n, dtype=z.dtype)).view(1, n, n, 1)
+    if net.cfg.pair_geometry:
+        relations = relations + net.pair_geom(dense.pair_geometry)
+    mask = dense.part_mask.to(z.dtype)
+    pairs = mask.unsqueeze(2) * mask.unsqueeze(1) * (1 - torch.eye(n, dtype=z.dtype))
+    return relations * pairs.unsqueeze(-1)
 
 
 def shared_work(net: GraceNet, dense: DenseAssemblies) -> SharedWork:
@@ -318,5 +323,6 @@ def state_features(
 def fast_logits(
     net: GraceNet, dense: DenseAssemblies, state_assembly: torch.Tensor, flags: torch.Tensor
 ) -> torch.Tensor:
-    """Part logits (T, N) for T states of the assemblies in `dense` (padding parts arbitrary)."""
-    return net.head(state_features(net, dense, state_assembly, flags)).squeeze(-1)
+    """Part logits (T, N), or (T, N, 2) with the placeable head, for T states of the assemblies
+    in `dense` (padding parts arbitrary)."""
+    return net.readout(state_features(net, dense, state_assembly, flags))

@@ -21,7 +21,8 @@ from torch_geometric.data import Batch, HeteroData
 from torch_geometric.nn import GATv2Conv, HeteroConv, InstanceNorm
 
 from grace.errors import UserError
-from grace.graphs.assembly_graph import PART_EDGE, SURFACE_EDGE
+from grace.graphs.assembly_graph import PAIR_EDGE, PART_EDGE, SURFACE_EDGE
+from grace.graphs.pair_geometry import PAIR_GEOMETRY_FEATURES
 
 
 @dataclass(frozen=True)
@@ -44,6 +45,19 @@ class NetConfig:
     sends every part's fused features, projected to the pair width, through the same pair
     features to the other parts (two hops: "is the neighbour that I would block still waiting,
     and can it still be placed?").
+
+    `pair_geometry` (not in the paper: 0 by default) adds to each pair feature a small MLP (this
+    hidden width) of the pair's relative geometry (grace.graphs.pair_geometry: one part's
+    footprint in the other's frame), so "does m stand where n's fingers go" is read from
+    the pair itself rather than pieced together from unsigned surface distances. Needs
+    `pair_readout`.
+
+    `placeable_head` (not in the paper: off by default) adds a second output per part, trained
+    to say whether placing the part is physically feasible (the ground truth's `placeable`,
+    dead ends included), beside the next-step output; the policy's score is the geometric mean
+    of both (:meth:`GraceNet.scores`). A wrong complete sequence needs a physically infeasible
+    step that scores above λ, and the second output is trained on exactly that question in
+    every reachable state.
     """
 
     hidden: int = 94
@@ -53,6 +67,8 @@ class NetConfig:
     state_blocks: int = 0
     pair_readout: int = 0
     readout_rounds: int = 1
+    pair_geometry: int = 0
+    placeable_head: bool = False
 
     def __post_init__(self) -> None:
         if not 0 <= self.state_blocks <= self.surface_blocks:
@@ -63,6 +79,11 @@ class NetConfig:
         if self.readout_rounds < 1 or (self.readout_rounds > 1 and not self.pair_readout):
             raise UserError(
                 f"model.net.readout_rounds={self.readout_rounds}: use 1, or more with "
+                "model.net.pair_readout > 0"
+            )
+        if self.pair_geometry < 0 or (self.pair_geometry and not self.pair_readout):
+            raise UserError(
+                f"model.net.pair_geometry={self.pair_geometry}: use 0, or a width > 0 with "
                 "model.net.pair_readout > 0"
             )
 
@@ -138,7 +159,13 @@ class GraceNet(nn.Module):
             rounds = range(cfg.readout_rounds - 1)
             self.round_gates = nn.ModuleList(nn.Linear(h, p) for _ in rounds)
             self.round_fuses = nn.ModuleList(nn.Linear(h + p, h) for _ in rounds)
-        self.head = nn.Linear(h, 1)
+        if cfg.pair_geometry:
+            self.pair_geom = nn.Sequential(
+                nn.Linear(PAIR_GEOMETRY_FEATURES, cfg.pair_geometry),
+                nn.LeakyReLU(cfg.negative_slope),
+                nn.Linear(cfg.pair_geometry, cfg.pair_readout),
+            )
+        self.head = nn.Linear(h, 2 if cfg.placeable_head else 1)
 
     def surface_gat(self, i: int) -> GATv2Conv:
         return self.surface_convs[i].convs[SURFACE_EDGE]
@@ -170,7 +197,20 @@ class GraceNet(nn.Module):
         x_part = torch.tanh(self.part_norm(out, part_batch))
         if self.cfg.pair_readout:
             x_part = self._pair_readout(data, static, x_part)
-        return self.head(x_part).squeeze(-1)
+        return self.readout(x_part)
+
+    def readout(self, features: torch.Tensor) -> torch.Tensor:
+        """Logits from part features (..., hidden): (...) with one head, (..., 2) with the
+        placeable head (next step, placeable)."""
+        logits = self.head(features)
+        return logits if self.cfg.placeable_head else logits.squeeze(-1)
+
+    def scores(self, logits: torch.Tensor) -> torch.Tensor:
+        """The policy's next-step scores from :meth:`readout`'s logits: the sigmoid, or with
+        the placeable head the geometric mean of both outputs' sigmoids."""
+        if self.cfg.placeable_head:
+            return torch.exp(F.logsigmoid(logits).mean(dim=-1))
+        return torch.sigmoid(logits)
 
     def _pair_readout(
         self, data: HeteroData | Batch, static: torch.Tensor, x_part: torch.Tensor
@@ -188,13 +228,20 @@ class GraceNet(nn.Module):
             z + self.pair_rel(data[SURFACE_EDGE].edge_attr[other]), self.cfg.negative_slope
         )
         z = z / (n_own[part_of[dst]] * n_own[part_of[src]]).unsqueeze(-1)
-        placed = data["part"].x[part_of[src], :1]
+        # Every term as (source part, destination part, feature): the surface pairs', then the
+        # part pairs' geometry terms.
+        src, dst = part_of[src], part_of[dst]
+        if self.cfg.pair_geometry:
+            pair_src, pair_dst = data[PAIR_EDGE].edge_index
+            src, dst = torch.cat([src, pair_src]), torch.cat([dst, pair_dst])
+            z = torch.cat([z, self.pair_geom(data[PAIR_EDGE].edge_attr)])
+        placed = data["part"].x[src, :1]
         sums = torch.zeros(x_part.shape[0], 2 * z.shape[1], dtype=z.dtype)
-        sums.index_add_(0, part_of[dst], torch.cat([placed * z, (1 - placed) * z], dim=1))
+        sums.index_add_(0, dst, torch.cat([placed * z, (1 - placed) * z], dim=1))
         x_part = torch.tanh(self.fuse(torch.cat([x_part, sums], dim=1)))
         for gate, fuse in zip(self.round_gates, self.round_fuses, strict=True):
             message = torch.zeros(x_part.shape[0], z.shape[1], dtype=z.dtype)
-            message.index_add_(0, part_of[dst], z * gate(x_part)[part_of[src]])
+            message.index_add_(0, dst, z * gate(x_part)[src])
             x_part = torch.tanh(fuse(torch.cat([x_part, message], dim=1)))
         return x_part
 

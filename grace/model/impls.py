@@ -59,7 +59,7 @@ class FastImpl:
     def assembly_logits(
         self, net: GraceNet, prepared: PreparedAssembly, states: np.ndarray
     ) -> torch.Tensor:
-        return net.head(prepared.part_features(net, states)).squeeze(-1)
+        return net.readout(prepared.part_features(net, states))
 
 
 class PygImpl:
@@ -71,7 +71,7 @@ class PygImpl:
 
     def logits(self, net: GraceNet, batch: StateBatch) -> torch.Tensor:
         flat = net(batch.inputs)
-        out = flat.new_zeros(batch.mask.shape)
+        out = flat.new_zeros(batch.mask.shape + flat.shape[1:])
         out[batch.mask] = flat
         return out
 
@@ -79,7 +79,8 @@ class PygImpl:
         self, net: GraceNet, prepared: PreparedAssembly, states: np.ndarray
     ) -> torch.Tensor:
         batch = Batch.from_data_list([state_graph(prepared.tensors, int(s)) for s in states])
-        return net(batch).view(len(states), prepared.assembly.n_parts)
+        flat = net(batch)
+        return flat.view(len(states), prepared.assembly.n_parts, *flat.shape[1:])
 
 
 NetImpl = FastImpl | PygImpl

@@ -77,11 +77,23 @@ class GraceModule(pl.LightningModule):
         """Part logits (T, N) of the batch's states; padding entries are meaningless."""
         return self.impl.logits(self.net, batch)
 
+    def loss(self, batch: StateBatch, logits: torch.Tensor) -> torch.Tensor:
+        """The training loss of a batch's logits (paper Eq. 4; with the placeable head, plus
+        the same loss of the second output on the placeable labels)."""
+        if not self.net.cfg.placeable_head:
+            return grace_loss(
+                logits, batch.labels, batch.flags, batch.mask, self.delta, batch.weights
+            )
+        # The placeable output learns physics in every state: no dead-end or step weights.
+        step, place = logits.unbind(dim=-1)
+        loss = grace_loss(step, batch.labels, batch.flags, batch.mask, self.delta, batch.weights)
+        return loss + grace_loss(place, batch.placeable, batch.flags, batch.mask, self.delta)
+
     def _step(self, batch: StateBatch, stage: str) -> torch.Tensor:
         logits = self(batch)
-        loss = grace_loss(logits, batch.labels, batch.flags, batch.mask, self.delta, batch.weights)
+        loss = self.loss(batch, logits)
         self.log(f"{stage}_loss", loss, on_epoch=True, on_step=False, batch_size=batch.n_states)
-        scores = torch.sigmoid(logits.detach())[batch.mask]
+        scores = self.net.scores(logits.detach())[batch.mask]
         self._outputs[stage].append((scores, batch.labels[batch.mask]))
         return loss
 

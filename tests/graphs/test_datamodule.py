@@ -241,3 +241,27 @@ def test_dead_end_weight_scales_states_that_complete_nothing_in_training_only(sa
     assert all(b.weights is None for b in dm.val_dataloader())
     with pytest.raises(UserError, match=r"datamodule\.dead_end_weight"):
         StateDataModule(samples, [], GraphEncoding(), dead_end_weight=-1.0)
+
+
+def test_batches_carry_the_ground_truths_placeable_parts_whatever_the_labels(samples):
+    """The placeable mask (the second output's target, grace_pyg.NetConfig.placeable_head) is
+    every physically feasible placement, dead ends included, under graded and paper labels."""
+    for target in (0.0, 0.4):
+        dm = StateDataModule(
+            samples,
+            samples,
+            GraphEncoding(),
+            batch_size=4096,
+            states="reachable",
+            dead_end_target=target,
+        )
+        batch = next(iter(dm.val_dataloader()))
+        bits = 1 << torch.arange(batch.flags.shape[1])
+        states = (batch.flags.long() * bits).sum(dim=1).numpy()
+        for row in range(batch.n_states):
+            truth = samples[int(batch.state_assembly[row])].truth
+            k = int(np.searchsorted(truth.states, states[row]))
+            expected = (truth.placeable[k] >> np.arange(truth.n_parts)) & 1
+            assert batch.placeable[row, : truth.n_parts].tolist() == expected.tolist()
+        assert torch.all(batch.placeable[~batch.mask] == 0)
+        assert torch.all(batch.placeable >= (batch.labels == 1).float())

@@ -7,6 +7,7 @@ from grace.errors import UserError
 from grace.graphs.assembly_graph import encode_assembly, state_flags, state_graph
 from grace.graphs.dense import DenseAssemblies
 from grace.graphs.encoding import GraphEncoding
+from grace.graphs.pair_geometry import PAIR_GEOMETRY_FEATURES
 from grace.model.grace_fast import fast_logits
 from grace.model.grace_pyg import GraceNet, NetConfig, count_parameters
 
@@ -27,6 +28,26 @@ def test_pair_readout_adds_pair_and_fuse_layers():
     assert count_parameters(GraceNet(NetConfig(pair_readout=p))) == 51_701 + extra
 
 
+def test_pair_geometry_adds_a_two_layer_mlp_to_the_readout():
+    p, w = 8, 6
+    base = count_parameters(GraceNet(NetConfig(pair_readout=p)))
+    with_geometry = count_parameters(GraceNet(NetConfig(pair_readout=p, pair_geometry=w)))
+    assert with_geometry - base == (PAIR_GEOMETRY_FEATURES * w + w) + (w * p + p)
+    with pytest.raises(UserError, match=r"model\.net\.pair_geometry=4.*pair_readout"):
+        NetConfig(pair_geometry=4)
+
+
+def test_placeable_head_scores_the_geometric_mean_of_both_outputs():
+    net = GraceNet(NetConfig(placeable_head=True))
+    assert count_parameters(net) == 51_701 + 94 + 1
+    logits = torch.tensor([[[2.0, -1.0], [0.0, 3.0]]])
+    expected = torch.sqrt(torch.sigmoid(logits[..., 0]) * torch.sigmoid(logits[..., 1]))
+    torch.testing.assert_close(net.scores(logits), expected)
+    torch.testing.assert_close(
+        GraceNet(NetConfig()).scores(logits[..., 0]), logits[..., 0].sigmoid()
+    )
+
+
 def _both_paths(samples, dtype, cfg=NetConfig()):  # noqa: B008
     torch.manual_seed(0)
     net = GraceNet(cfg).to(dtype)
@@ -37,7 +58,7 @@ def _both_paths(samples, dtype, cfg=NetConfig()):  # noqa: B008
     ref = net(Batch.from_data_list(graphs).apply(cast))
     ref_grads = torch.autograd.grad(ref.square().sum(), list(net.parameters()))
     dense = DenseAssemblies.stack(tensors)
-    for key in ("surface_x", "relation", "part_static"):
+    for key in ("surface_x", "relation", "part_static", "pair_geometry"):
         setattr(dense, key, cast(getattr(dense, key)))
     n = dense.part_mask.shape[1]
     index = torch.cat([torch.full((len(s),), i) for i, s in enumerate(states)])
@@ -48,12 +69,31 @@ def _both_paths(samples, dtype, cfg=NetConfig()):  # noqa: B008
 
 
 @pytest.mark.parametrize(
-    ("state_blocks", "pair_readout", "rounds"),
-    [(0, 0, 1), (1, 0, 1), (3, 0, 1), (0, 8, 1), (1, 8, 1), (3, 8, 1), (0, 8, 3)],
+    ("state_blocks", "pair_readout", "rounds", "geometry", "two_heads"),
+    [
+        (0, 0, 1, 0, False),
+        (1, 0, 1, 0, False),
+        (3, 0, 1, 0, False),
+        (0, 8, 1, 0, False),
+        (1, 8, 1, 0, False),
+        (3, 8, 1, 0, False),
+        (0, 8, 3, 0, False),
+        (0, 8, 3, 6, False),
+        (1, 8, 2, 6, False),
+        (0, 8, 2, 6, True),
+    ],
 )
-def test_fast_path_equals_pyg_path(samples, state_blocks, pair_readout, rounds):
+def test_fast_path_equals_pyg_path(
+    samples, state_blocks, pair_readout, rounds, geometry, two_heads
+):
     """Same weights → same logits and parameter gradients, on a batch of mixed sizes (float64)."""
-    cfg = NetConfig(state_blocks=state_blocks, pair_readout=pair_readout, readout_rounds=rounds)
+    cfg = NetConfig(
+        state_blocks=state_blocks,
+        pair_readout=pair_readout,
+        readout_rounds=rounds,
+        pair_geometry=geometry,
+        placeable_head=two_heads,
+    )
     ref, fast, ref_grads, fast_grads = _both_paths(samples, torch.float64, cfg)
     assert ref.shape == fast.shape
     torch.testing.assert_close(fast, ref, atol=1e-5, rtol=0)

@@ -5,6 +5,7 @@ import torch
 from hydra.utils import instantiate
 
 from grace.evaluation.metrics import step_auc
+from grace.model.loss import grace_loss
 from grace.model.module import GraceModule
 from grace.model.module import step_auc as logged_step_auc
 from grace.model.scoring import make_scorer
@@ -97,3 +98,26 @@ def test_a_fit_without_validation_watches_the_training_loss(cfg_factory, samples
     losses = [float(r["train_loss"]) for r in rows]
     assert len(losses) == 3 and "val_loss" not in {k for r in rows for k, v in r.items() if v}
     assert best["epoch"] == int(np.argmin(losses))
+
+
+def test_two_heads_train_next_step_and_placeable_outputs_on_their_own_targets(cfg_factory, samples):
+    """With the placeable head the loss is the next-step loss on the graded labels (with the
+    state weights) plus the placeable output's loss on the placeable mask (unweighted)."""
+    cfg = cfg_factory(
+        "model.net.pair_readout=8", "model.net.pair_geometry=6", "model.net.placeable_head=true"
+    )
+    module = instantiate(cfg.model)
+    dm = instantiate(cfg.datamodule)(samples, samples, enc=module.enc, collate=module.impl.collate)
+    batch = next(iter(dm.train_dataloader()))
+    assert batch.weights is not None and batch.placeable is not None
+    logged = {}
+    module.log = lambda name, value, **kw: logged.setdefault(name, value)
+    loss = module.training_step(batch, 0)
+    logits = module(batch)
+    assert logits.shape == (*batch.mask.shape, 2)
+    step = grace_loss(
+        logits[..., 0], batch.labels, batch.flags, batch.mask, module.delta, batch.weights
+    )
+    place = grace_loss(logits[..., 1], batch.placeable, batch.flags, batch.mask, module.delta)
+    torch.testing.assert_close(loss, step + place)
+    assert not torch.equal(batch.placeable, batch.labels)

@@ -15,7 +15,6 @@ from hydra.utils import instantiate
 
 from grace.data.raw_format import read_assembly
 from grace.errors import UserError
-from grace.model.loss import grace_loss
 from grace.tasks.plan import run
 from grace.tasks.training import keep_config
 from grace.visualisation.recording import summarise, text_entries
@@ -51,8 +50,7 @@ def fit(cfg_factory, root):
     optimiser = torch.optim.Adam(module.parameters(), lr=0.01)
     for _ in range(150):
         for batch in batches:
-            logits = module(batch)
-            loss = grace_loss(logits, batch.labels, batch.flags, batch.mask, module.delta)
+            loss = module.loss(batch, module(batch))
             optimiser.zero_grad()
             loss.backward()
             optimiser.step()
