@@ -46,18 +46,18 @@ class NetConfig:
     features to the other parts (two hops: "is the neighbour that I would block still waiting,
     and can it still be placed?").
 
-    `pair_geometry` (not in the paper: 0 by default) adds to each pair feature a small MLP (this
-    hidden width) of the pair's relative geometry (grace.graphs.pair_geometry: one part's
-    footprint in the other's frame), so "does m stand where n's fingers go" is read from
-    the pair itself rather than pieced together from unsigned surface distances. Needs
-    `pair_readout`.
+    `pair_geometry` (not in the paper: 0 here, 64 in the default model `grace_geometric`) adds
+    to each pair feature a small MLP (this hidden width) of the pair's relative geometry
+    (grace.graphs.pair_geometry: one part's footprint in the other's frame), so "does m stand
+    where n's fingers go" is read from the pair itself rather than pieced together from unsigned
+    surface distances. Needs `pair_readout`.
 
-    `placeable_head` (not in the paper: off by default) adds a second output per part, trained
-    to say whether placing the part is physically feasible (the ground truth's `placeable`,
-    dead ends included), beside the next-step output; the policy's score is the geometric mean
-    of both (:meth:`GraceNet.scores`). A wrong complete sequence needs a physically infeasible
-    step that scores above λ, and the second output is trained on exactly that question in
-    every reachable state.
+    `placeable_head` (not in the paper: off here, on in `grace_geometric`) adds a second output
+    per part, trained to say whether placing the part is physically feasible (the ground truth's
+    `placeable`, dead ends included), beside the next-step output; the policy's score is the
+    geometric mean of both (:meth:`GraceNet.scores`). A wrong complete sequence needs a
+    physically infeasible step that scores above λ, and the second output is trained on exactly
+    that question in every reachable state.
     """
 
     hidden: int = 94

@@ -38,12 +38,12 @@ def test_table3_sweep_runs_both_models_and_gathers(tmp_path):
     )
     runs = sorted(sweep.glob("*/results.json"))
     models = {json.loads(p.read_text())["run"]["model"] for p in runs}
-    assert len(runs) == 2 and models == {"grace", "grace_relational"}
+    assert len(runs) == 2 and models == {"grace", "grace_geometric"}
     gathered = tmp_path / "gather"
     gather(sweep, gathered, common)
     table = (gathered / "gather.md").read_text()
     assert "## Table 3: one-to-many" in table
-    assert "| model=grace | A4 |" in table and "| model=grace_relational | A4 |" in table
+    assert "| model=grace | A4 |" in table and "| model=grace_geometric | A4 |" in table
 
 
 @pytest.mark.slow
