@@ -39,6 +39,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from enum import StrEnum
+from functools import partial
 from typing import Any
 
 import lightning.pytorch as pl
@@ -294,34 +295,41 @@ class StateDataset:
         return [len(s) for _, s, *_ in self.chunks]
 
 
+def merge_chunks(dataset: StateDataset, collate: Collate, items: list[Item]) -> StateBatch:
+    """One training batch from chunks of `dataset`: the collated states with their (graded)
+    labels, loss weights and placeable masks, as the training loop and the benchmark see it."""
+    groups: dict[int, tuple[AssemblyTensors, list, list, list, list]] = {}
+    for tensors, *parts in items:  # chunks of one assembly share its tensors: merge them
+        group = groups.setdefault(id(tensors), (tensors, [], [], [], []))
+        for into, part in zip(group[1:], parts, strict=True):
+            into.append(part)
+    tensors = [g[0] for g in groups.values()]
+    states = [np.concatenate(g[1]) for g in groups.values()]
+    labels = [np.concatenate(g[2]) for g in groups.values()]
+    batch = collate(tensors, states, labels)
+    if dataset.weighted:
+        batch.weights = torch.from_numpy(
+            np.concatenate([np.concatenate(g[3]) for g in groups.values()])
+        )
+    dead_ends = np.concatenate([np.concatenate(g[4]) for g in groups.values()])
+    graded = state_flags(dead_ends, batch.labels.shape[1]) * batch.mask
+    batch.placeable = batch.labels + graded
+    if dataset.dead_end_target:
+        batch.labels = batch.labels + dataset.dead_end_target * graded
+    return batch
+
+
 def make_loader(
     dataset: StateDataset, collate: Collate, batch_size: int, shuffle: bool, seed: int
 ) -> DataLoader:
     """A DataLoader over `dataset` batched by assembly; runs in the main process (seeded)."""
     sampler = AssemblyBatchSampler(dataset.chunk_sizes(), batch_size, shuffle, seed)
-
-    def merge(items: list[Item]) -> StateBatch:
-        groups: dict[int, tuple[AssemblyTensors, list, list, list, list]] = {}
-        for tensors, *parts in items:  # chunks of one assembly share its tensors: merge them
-            group = groups.setdefault(id(tensors), (tensors, [], [], [], []))
-            for into, part in zip(group[1:], parts, strict=True):
-                into.append(part)
-        tensors = [g[0] for g in groups.values()]
-        states = [np.concatenate(g[1]) for g in groups.values()]
-        labels = [np.concatenate(g[2]) for g in groups.values()]
-        batch = collate(tensors, states, labels)
-        if dataset.weighted:
-            batch.weights = torch.from_numpy(
-                np.concatenate([np.concatenate(g[3]) for g in groups.values()])
-            )
-        dead_ends = np.concatenate([np.concatenate(g[4]) for g in groups.values()])
-        graded = state_flags(dead_ends, batch.labels.shape[1]) * batch.mask
-        batch.placeable = batch.labels + graded
-        if dataset.dead_end_target:
-            batch.labels = batch.labels + dataset.dead_end_target * graded
-        return batch
-
-    return DataLoader(dataset, batch_sampler=sampler, collate_fn=merge, num_workers=0)
+    return DataLoader(
+        dataset,
+        batch_sampler=sampler,
+        collate_fn=partial(merge_chunks, dataset, collate),
+        num_workers=0,
+    )
 
 
 class StateDataModule(pl.LightningDataModule):

@@ -35,10 +35,9 @@ from grace.data.atomic import write_text_atomic
 from grace.domain.sample import LabelledAssembly
 from grace.evaluation.baselines import BASELINES
 from grace.evaluation.evaluate import evaluate_by_size
-from grace.graphs.datamodule import AssemblyBatchSampler, StateDataset
+from grace.graphs.datamodule import AssemblyBatchSampler, StateDataset, merge_chunks
 from grace.model.grace_pyg import count_parameters
 from grace.model.impls import FastImpl, NetImpl, PygImpl
-from grace.model.loss import grace_loss
 from grace.model.module import GraceModule
 from grace.model.scoring import make_scorer
 from grace.planning.bench import planner_benchmark
@@ -103,9 +102,8 @@ def train_graphs_per_s(
     for step in range(steps + 1):
         items = [dataset[k] for k in batches[step % len(batches)]]
         start = time.perf_counter()
-        tensors, states, labels, *_ = zip(*items, strict=True)
-        batch = module.impl.collate(tensors, states, labels)
-        loss = grace_loss(module(batch), batch.labels, batch.flags, batch.mask, module.delta)
+        batch = merge_chunks(dataset, module.impl.collate, items)
+        loss = module.loss(batch, module(batch))
         optimiser.zero_grad()
         loss.backward()
         optimiser.step()

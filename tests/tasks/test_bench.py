@@ -1,15 +1,18 @@
 import json
 from pathlib import Path
 
+import pytest
 from omegaconf import open_dict
 
 from grace.tasks.bench import run
 
 
-def test_bench_writes_side_by_side_figures(cfg_factory, fake_simulator):
+@pytest.mark.parametrize(("model", "params"), [("grace", 51_701), ("grace_geometric", 137_084)])
+def test_bench_writes_side_by_side_figures(cfg_factory, fake_simulator, model, params):
+    """The paper's network and the default (two outputs: the benchmark trains with its loss)."""
     cfg = cfg_factory(
         "task=bench",
-        "model=grace",
+        f"model={model}",
         "task.assemblies=3",
         "task.train_steps=2",
         "task.infer_calls=3",
@@ -21,7 +24,7 @@ def test_bench_writes_side_by_side_figures(cfg_factory, fake_simulator):
         cfg.simulator = fake_simulator
     speedup = run(cfg)
     bench = json.loads(Path(cfg.paths.output_dir, "bench.json").read_text())
-    assert bench["params"] == 51_701
+    assert bench["params"] == params
     assert set(bench["train_graphs_per_s"]) == {"pyg", "fast"}
     assert all(v > 0 for v in bench["train_graphs_per_s"].values())
     for impl in ("pyg", "fast"):
