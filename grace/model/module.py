@@ -74,20 +74,21 @@ class GraceModule(pl.LightningModule):
         self._outputs: dict[str, list[tuple[torch.Tensor, torch.Tensor]]] = {"train": [], "val": []}
 
     def forward(self, batch: StateBatch) -> torch.Tensor:
-        """Part logits (T, N) of the batch's states; padding entries are meaningless."""
+        """Part logits (T, N) of the batch's states, (T, N, 2) with the placeable head; padding
+        entries are meaningless."""
         return self.impl.logits(self.net, batch)
 
     def loss(self, batch: StateBatch, logits: torch.Tensor) -> torch.Tensor:
         """The training loss of a batch's logits (paper Eq. 4; with the placeable head, plus
         the same loss of the second output on the placeable labels)."""
-        if not self.net.cfg.placeable_head:
-            return grace_loss(
-                logits, batch.labels, batch.flags, batch.mask, self.delta, batch.weights
-            )
-        # The placeable output learns physics in every state: no dead-end or step weights.
-        step, place = logits.unbind(dim=-1)
+        two = self.net.cfg.placeable_head
+        step = logits[..., 0] if two else logits
         loss = grace_loss(step, batch.labels, batch.flags, batch.mask, self.delta, batch.weights)
-        return loss + grace_loss(place, batch.placeable, batch.flags, batch.mask, self.delta)
+        if two:  # the placeable output learns physics in every state: no dead-end or step weights
+            loss = loss + grace_loss(
+                logits[..., 1], batch.placeable, batch.flags, batch.mask, self.delta
+            )
+        return loss
 
     def _step(self, batch: StateBatch, stage: str) -> torch.Tensor:
         logits = self(batch)
