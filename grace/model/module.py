@@ -59,6 +59,7 @@ class GraceModule(pl.LightningModule):
         optimizer: Optimizer,
         scheduler: Scheduler | None = None,
         delta: float = 0.3,
+        placeable_pos_weight: float = 1.0,
         monitor: str = "val_loss",
         seed: int = 0,
         name: str = "grace",
@@ -69,6 +70,7 @@ class GraceModule(pl.LightningModule):
         self.enc = graph
         self.impl = impl
         self.delta = delta
+        self.placeable_pos_weight = placeable_pos_weight
         self.seed = seed
         self.name = name
         self._outputs: dict[str, list[tuple[torch.Tensor, torch.Tensor]]] = {"train": [], "val": []}
@@ -86,7 +88,12 @@ class GraceModule(pl.LightningModule):
         loss = grace_loss(step, batch.labels, batch.flags, batch.mask, self.delta, batch.weights)
         if two:  # the placeable output learns physics in every state: no dead-end or step weights
             loss = loss + grace_loss(
-                logits[..., 1], batch.placeable, batch.flags, batch.mask, self.delta
+                logits[..., 1],
+                batch.placeable,
+                batch.flags,
+                batch.mask,
+                self.delta,
+                pos_weight=self.placeable_pos_weight,
             )
         return loss
 

@@ -42,3 +42,14 @@ def test_state_weights_scale_each_states_nodes():
     expected = (3.0 * 0.7 * nodes[0] + 3.0 * 0.7 * nodes[1] + 0.5 * 0.7 * nodes[2]) / 3
     loss = grace_loss(logits, labels, flags, mask, 0.3, torch.tensor([3.0, 0.5]))
     assert math.isclose(float(loss), expected, rel_tol=1e-6)
+
+
+def test_pos_weight_scales_only_positive_labels():
+    logits = torch.tensor([[0.5, 1.5]])
+    labels = torch.tensor([[1.0, 0.0]])
+    flags = torch.zeros(1, 2)
+    mask = torch.ones(1, 2, dtype=torch.bool)
+    positive = -math.log(1 / (1 + math.exp(-0.5)))
+    negative = -math.log(1 - 1 / (1 + math.exp(-1.5)))
+    loss = grace_loss(logits, labels, flags, mask, 0.0, pos_weight=4.0)
+    assert math.isclose(float(loss), (4.0 * positive + negative) / 2, rel_tol=1e-6)
