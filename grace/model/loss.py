@@ -24,7 +24,7 @@ def grace_loss(
     The regulariser pushes scores of already placed parts to 0 (paper Eq. 5); BCE is computed from
     logits for numerical stability, which is the same function as BCE on the sigmoid.
     """
-    weight_positives = None if pos_weight == 1.0 else torch.tensor(pos_weight)
+    weight_positives = None if pos_weight == 1.0 else logits.new_tensor(pos_weight)
     bce = F.binary_cross_entropy_with_logits(
         logits, labels, reduction="none", pos_weight=weight_positives
     )
