@@ -78,18 +78,17 @@ class GripperConfig:
 
 @dataclass
 class ClampConfig:
-    """The swing clamp that holds every placed profile down on the fixture plate."""
+    """The swing clamp that holds every placed profile down on the fixture plate: a post fixed
+    to the plate from the start, an arm swung over the profile's top once it is placed."""
 
     width: float = MISSING
-    """Body extent along the profile."""
+    """Post extent along the profile."""
     depth: float = MISSING
-    """Body extent out from the profile's side."""
-    height: float = MISSING
-    """Body height above the table."""
+    """Post extent out from the profile's side."""
     arm_width: float = MISSING
     """The clamping arm over the profile's top: extent along the profile ..."""
     arm_thickness: float = MISSING
-    """... and its thickness above the profile's top."""
+    """... and its thickness above the profile's top; the post reaches up to the arm's top."""
     grid: float = MISSING
     """Candidate clamp positions along a profile are multiples of this."""
 

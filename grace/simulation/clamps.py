@@ -1,14 +1,21 @@
-"""The fixture's swing clamps: where each profile is held down once placed (docs/world.md).
+"""The fixture's swing clamps: a post fixed to the plate per profile, its arm swung over the
+profile once placed (docs/world.md, "The cell").
 
-Every profile is clamped to the fixture plate as soon as it is placed and stays clamped until the
-frame is done, so its clamp is an obstacle from then on, like the part itself (it shares the
-part's bit in every blocker mask). A clamp is a body standing beside the profile's long side and
-an arm over the profile's top. The fixture designer puts it as near the profile's middle as
-there is room (no other part's footprint and no other clamp within its footprint), ties to the
-side facing away from the frame's centre, then the lower position. A profile with no free spot
-on either side gets no clamp. The placement is a function of the assembly's geometry alone, so
-it is the same for every order and every simulator, and an imported assembly gets the same
-clamps.
+A swing clamp's post (its body) is bolted to the fixture plate before any part arrives, so it is
+an obstacle for the gripper, the held part and the arms at every step, also before its profile
+is placed and also for that profile itself. Its arm swings over the profile's top only once the
+profile is placed and the gripper has left, so the arm is an obstacle for later parts only (it
+shares the profile's bit in the blocker masks; a post is there in every state). The arm rides on
+the post's rod, so the post reaches up to the arm's top.
+
+The fixture designer puts each post as near its profile's middle as there is room (no part's
+footprint and no other post within its footprint), ties to the side facing the frame's centre,
+then the lower position: parts come in from outside the frame (a stem slides along its hosts'
+grooves from their open ends, a host along its axis from beyond its end), so a post outside
+would stand in those paths, e.g. in the way of the last rung of a rectangle. A profile with no
+free spot on either side gets no clamp. The placement is a function of the assembly's geometry
+alone, so it is the same for every order and every simulator, and an imported assembly gets the
+same clamps.
 """
 
 from __future__ import annotations
@@ -23,10 +30,12 @@ HALF = PROFILE_SECTION_MM / 2
 
 
 def clamp_boxes(assembly: Assembly, cfg: ClampConfig, tolerance: float) -> list[np.ndarray]:
-    """Per part, its clamp as k×2×3 boxes (lo, hi) in world mm (k = 0 for brackets)."""
+    """Per part, its clamp as k×2×3 boxes (lo, hi) in world mm: the post, then the arm (k = 0
+    for brackets and for a profile without room)."""
     footprints = [box for p in assembly.parts for box in p.footprint_boxes()]
     centre = np.mean([p.xy for p in assembly.parts], axis=0)
     taken: list[Box] = []
+    top = PROFILE_SECTION_MM + cfg.arm_thickness  # the post carries the arm on its top
     out = []
     for part in assembly.parts:
         spot = (
@@ -42,7 +51,7 @@ def clamp_boxes(assembly: Assembly, cfg: ClampConfig, tolerance: float) -> list[
         out.append(
             np.array(
                 [
-                    [[body[0], body[1], 0.0], [body[2], body[3], cfg.height]],
+                    [[body[0], body[1], 0.0], [body[2], body[3], top]],
                     [
                         [arm[0], arm[1], PROFILE_SECTION_MM],
                         [arm[2], arm[3], PROFILE_SECTION_MM + cfg.arm_thickness],
@@ -67,7 +76,7 @@ def _spot(
     for side in (1.0, -1.0):
         free = _free(part, u, n * side, positions, cfg, blocks, tolerance)
         for at in positions[free]:
-            key = (-abs(float(at)), side * outward, -float(at))
+            key = (-abs(float(at)), -side * outward, -float(at))
             if best is None or key > best[0]:
                 best = (key, _boxes(part, u, n * side, float(at), cfg))
     return None if best is None else best[1]

@@ -106,8 +106,8 @@ def swept_boxes(boxes: np.ndarray, motion: Motion) -> np.ndarray:
 
 def tcp_samples(tcp: tuple[float, float, float], motion: Motion, step: float) -> np.ndarray:
     """TCP positions (K×3, mm) along `motion`, at most `step` apart, waypoints included."""
-    points = [np.asarray(motion.waypoints[0], dtype=float)]
+    points = [np.asarray(motion.waypoints[:1], dtype=float)]
     for start, end in motion.segments():
         n = max(1, math.ceil(np.linalg.norm(end - start) / step))
-        points.extend(start + (end - start) * (k / n) for k in range(1, n + 1))
-    return np.asarray(tcp) + np.array(points)
+        points.append(start + (end - start) * (np.arange(1, n + 1) / n)[:, None])
+    return np.asarray(tcp) + np.concatenate(points)

@@ -40,7 +40,8 @@ class Block:
     part: int | None
     """The part hit (for a clamp: the part it holds); None for reach and table/self hits."""
     obstacle: str
-    """'part', 'clamp', 'out of reach' or 'table or arm itself'."""
+    """'part', 'clamp' (the post of part `part`'s clamp, there from the start, or its arm, there
+    once `part` is placed), 'out of reach' or 'table or arm itself'."""
 
 
 @dataclass(frozen=True)
@@ -89,14 +90,16 @@ def candidate_blocks(
         blocks.append(Block("arm_links", f"arm {option.arm} links", None, "table or arm itself"))
     for body in BODIES:
         for kind in KINDS:
-            rule = "clamps" if kind == "clamp" else RULE_OF_BODY[body]
+            rule = RULE_OF_BODY[body] if kind == "part" else "clamps"
             if RULE_OF_BODY[body] not in rules or rule not in rules:
                 continue
-            hit = option.masks[category(body, kind)] & placed
+            # A clamp post stands from the start; a part or a clamp's arm once placed.
+            hit = option.masks[category(body, kind)] & (-1 if kind == "post" else placed)
             name = _BODY_NAMES[body]
-            if body == "held_part" and motion.kind == "slide":
+            if body == "held_part" and motion.kind != "top_down":
                 name = "slide corridor"
-            blocks.extend(Block(rule, name, q, kind) for q in mask_to_parts(hit))
+            obstacle = "clamp" if kind == "post" else kind
+            blocks.extend(Block(rule, name, q, obstacle) for q in mask_to_parts(hit))
     return tuple(blocks)
 
 

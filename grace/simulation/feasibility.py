@@ -129,6 +129,8 @@ class OptionTable:
             for kind in KINDS
             if RULE_OF_BODY[body] in rules and (kind == "part" or "clamps" in rules)
         ]
+        posts = [c for c in cols if KINDS[c % len(KINDS)] == "post"]
+        cols = [c for c in cols if c not in posts]
         masks = self.masks.copy()
         usable = np.ones(len(self.part), dtype=bool)
         if "reach" in rules and relax != "reach":
@@ -137,6 +139,8 @@ class OptionTable:
             usable &= self.arm_clear
         if relax is not None:
             _relax(masks, relax, self)
+        # A clamp post stands from the start: an option that hits one is unusable in every state.
+        usable &= ~masks[:, posts].any(axis=1)
         combined = (
             np.bitwise_or.reduce(masks[:, cols], axis=1) if cols else np.zeros(len(masks), np.int64)
         )
@@ -170,11 +174,12 @@ def _relax(masks: np.ndarray, mechanism: str, table: OptionTable) -> None:
     elif mechanism == "clamp":
         for body in ("finger", "palm", "held_part"):
             masks[:, category(body, "clamp")] = 0
+            masks[:, category(body, "post")] = 0
     elif mechanism == "arm":
         for body in BODIES:
             if body.startswith("arm_"):
-                masks[:, category(body, "part")] = 0
-                masks[:, category(body, "clamp")] = 0
+                for kind in KINDS:
+                    masks[:, category(body, kind)] = 0
 
 
 def _minimal(masks: np.ndarray) -> np.ndarray:

@@ -7,7 +7,9 @@ blocker masks say which other parts stop it, one mask per (robot body, obstacle 
 
 - bodies: the motion's T-slot joints (`joint`), the two fingers, the palm (gripper body), the
   held part, and the four arm links (column, upper arm, forearm, wrist);
-- obstacle kinds: the part itself, or its clamp (`clamps.clamp_boxes`).
+- obstacle kinds: the part itself, its clamp's arm (there once the part is placed), or its
+  clamp's post (`clamps.clamp_boxes`), which stands on the plate from the start: a post hit
+  makes an option unusable in every state, also for the post's own profile.
 
 The fingers, palm and held part are world-aligned boxes moving along world axes, so the volume
 each sweeps along a motion segment is exactly the box spanning its start and end copies; their
@@ -15,8 +17,9 @@ contacts are box overlaps. The arm links are capsules in arbitrary poses: a box 
 bounds picks the samples where they may touch something, and MuJoCo's collision detection
 decides those. `options` puts every part of the assembly into the scene at once and attributes
 each contact to its owner, so one query per option gives the blockers for every state: the
-option is free in state S iff `blockers & S == 0`. `check_placement` is the uncached reference:
-only the parts of one state in MuJoCo, tool and arm sampled every few millimetres.
+option is free in state S iff it hits no post and `blockers & S == 0` for the other masks.
+`check_placement` is the uncached reference: only the parts of one state (and every post) in
+MuJoCo, tool and arm sampled every few millimetres.
 """
 
 from __future__ import annotations
@@ -44,7 +47,7 @@ from grace.simulation.clearance import (
 from grace.simulation.kinematics import IiwaArm
 
 BODIES = ("joint", "finger", "palm", "held_part", *(f"arm_{link}" for link in mjcf.LINKS))
-KINDS = ("part", "clamp")
+KINDS = ("part", "clamp", "post")
 RULE_OF_BODY = {
     "joint": "joints",
     "finger": "fingers",
@@ -68,8 +71,9 @@ def category(body: str, kind: str) -> int:
 @dataclass(frozen=True)
 class PlacementOption:
     """One way to place a part; `arm` = −1 in a cell without robot, `branch` = −1 if no IK
-    branch reaches. `masks[category(body, kind)]` is the bitmask of parts whose body or clamp
-    that robot body would penetrate (for an unreachable option only the tool and the joint)."""
+    branch reaches. `masks[category(body, kind)]` is the bitmask of parts whose body, clamp arm
+    or clamp post that robot body would penetrate (for an unreachable option only the tool and
+    the joint); a post is there in every state, the rest once its part is placed."""
 
     arm: int
     branch: int
@@ -80,16 +84,31 @@ class PlacementOption:
     masks: tuple[int, ...]
 
     @property
-    def blockers(self) -> int:
+    def posts(self) -> int:
+        """Bitmask of the profiles whose clamp post any robot body would hit."""
         out = 0
-        for m in self.masks:
-            out |= m
+        for body in BODIES:
+            out |= self.masks[category(body, "post")]
         return out
+
+    @property
+    def blockers(self) -> int:
+        """Bitmask of the parts whose body or clamp arm would stop this option once placed."""
+        out = 0
+        for c, m in enumerate(self.masks):
+            if KINDS[c % len(KINDS)] != "post":
+                out |= m
+        return out
+
+    def free(self, placed: int) -> bool:
+        """Usable with every rule on once the parts of bitmask `placed` are placed."""
+        return self.reachable and self.arm_clear and not self.posts and not self.blockers & placed
 
 
 @dataclass
 class Scene:
-    """One assembly's obstacles: every part's boxes and its clamp's, with owner and kind."""
+    """One assembly's obstacles: every part's boxes and its clamp's, with owner and kind
+    (0 part, 1 clamp); `fixed` marks the clamp posts, which stand from the start."""
 
     assembly: Assembly
     clamps: list[np.ndarray]
@@ -97,15 +116,33 @@ class Scene:
     hi: np.ndarray
     owner: np.ndarray
     kind: np.ndarray
+    fixed: np.ndarray
     bits: np.ndarray = field(init=False)
+    column: np.ndarray = field(init=False)
+    """Per box, its obstacle kind's index in `KINDS` (part, clamp arm, post)."""
 
     def __post_init__(self) -> None:
         self.bits = np.left_shift(np.int64(1), self.owner.astype(np.int64))
+        self.column = np.where(self.fixed, KINDS.index("post"), self.kind)
+
+    def present(self, parts: list[int], clamps: bool = True) -> np.ndarray:
+        """Which boxes stand in the cell once `parts` are placed: theirs, and with clamps their
+        clamps' arms and every post."""
+        placed = np.isin(self.owner, parts)
+        return (placed & (self.kind == 0)) | (clamps & ((placed & (self.kind == 1)) | self.fixed))
 
     def boxes_of(self, parts: list[int], clamps: bool = True) -> np.ndarray:
         """World boxes (k×2×3, mm) of `parts` and, if asked, their clamps."""
         keep = np.isin(self.owner, parts) & ((self.kind == 0) | clamps)
         return np.stack([self.lo[keep], self.hi[keep]], axis=1)
+
+    def posts(self) -> np.ndarray:
+        """Every clamp post (k×2×3, mm): on the plate before any part arrives."""
+        return np.stack([self.lo[self.fixed], self.hi[self.fixed]], axis=1)
+
+    def obstacles_for(self, part: int) -> np.ndarray:
+        """Boxes that can stop `part`: everything but its own body and clamp arm."""
+        return (self.owner != part) | self.fixed
 
 
 @dataclass(frozen=True)
@@ -120,6 +157,8 @@ class CellPose:
     """Fingers, palm and held part at the final pose: k×2×3 world boxes in mm."""
     parts: dict[int, np.ndarray]
     """Placed part index (the placed part included) → its boxes and its clamp's, k×2×3 mm."""
+    posts: np.ndarray
+    """Every clamp post (k×2×3 mm): they stand from the start, placed profile or not."""
 
 
 class RobotCell:
@@ -190,24 +229,33 @@ class RobotCell:
                 f"assembly '{assembly.name}' of {assembly.n_parts} parts; raise it"
             )
         clamps = clamp_boxes(assembly, self.config.clamp, self._tolerance)
-        boxes, owner, kind = [], [], []
+        boxes, owner, kind, fixed = [], [], [], []
         for i, part in enumerate(assembly.parts):
             for k, group in enumerate((part_boxes(part), clamps[i])):
                 boxes.extend(group)
                 owner.extend([i] * len(group))
                 kind.extend([k] * len(group))
+                fixed.extend([k == 1 and b == 0 for b in range(len(group))])
         arr = np.array(boxes).reshape(-1, 2, 3)
-        scene = Scene(assembly, clamps, arr[:, 0], arr[:, 1], np.array(owner), np.array(kind))
-        self._load(scene, list(range(assembly.n_parts)), clamps=True)
+        scene = Scene(
+            assembly,
+            clamps,
+            arr[:, 0],
+            arr[:, 1],
+            np.array(owner),
+            np.array(kind),
+            np.array(fixed, dtype=bool),
+        )
+        self._load(scene, scene.present(list(range(assembly.n_parts))))
         return scene
 
-    def _load(self, scene: Scene, parts: list[int], clamps: bool) -> None:
-        keep = np.isin(scene.owner, parts) & ((scene.kind == 0) | clamps)
+    def _load(self, scene: Scene, keep: np.ndarray) -> None:
+        """Put the boxes `keep` selects into the slots (the rest parked)."""
         boxes = np.stack([scene.lo[keep], scene.hi[keep]], axis=1)
         self._place(self._slots, boxes, self._parked)
         self._slot_owner[:] = -1
         self._slot_owner[: keep.sum()] = scene.owner[keep]
-        self._slot_kind[: keep.sum()] = scene.kind[keep]
+        self._slot_kind[: keep.sum()] = scene.column[keep]
 
     def _place(self, geoms: np.ndarray, boxes: np.ndarray, parked: np.ndarray) -> None:
         """Move the first len(boxes) geoms of a pool onto `boxes` (mm) and park the rest."""
@@ -237,14 +285,23 @@ class RobotCell:
     def part_options(self, scene: Scene, part: int, motions: list[Motion]) -> list[PlacementOption]:
         assembly = scene.assembly
         grasps = self.grasps(assembly, part)
-        combos = [(g, m) for g in range(len(grasps)) for m in range(len(motions))]
+        # Motions along the same path (they differ in the joints they make) are swept once.
+        paths: dict[bytes, int] = {}
+        path_of = [paths.setdefault(m.waypoints.tobytes(), i) for i, m in enumerate(motions)]
+        swept = sorted(set(path_of))
+        combos = [(g, m) for g in range(len(grasps)) for m in swept]
+        row = {combo: c for c, combo in enumerate(combos)}
         tool = self._tool_masks(scene, part, grasps, motions, combos)
         own = np.int64(1) << part
+        step = self.config.arm_sample_step
+        offsets = {m: tcp_samples((0.0, 0.0, 0.0), motions[m], step) for m in swept}
+        samples = [grasps[g].tcp + offsets[m] for g, m in combos]
         arm_results = [
-            self._arm_masks(scene, part, grasps, motions, combos, a) for a in range(self.n_arms)
+            self._arm_masks(scene, part, grasps, samples, combos, a) for a in range(self.n_arms)
         ]
         out = []
-        for c, (g, m) in enumerate(combos):
+        for g, m in ((g, m) for g in range(len(grasps)) for m in range(len(motions))):
+            c = row[(g, path_of[m])]
             base = tool[c].copy()
             base[category("joint", "part")] = motions[m].joint_blockers & ~own
             if not self.arms:
@@ -279,13 +336,13 @@ class RobotCell:
             labels.append(c * len(BODIES) + np.tile(body, len(swept) // len(solid)))
         rows = np.concatenate(boxes)
         keys = np.concatenate(labels)
-        other = scene.owner != part
+        other = scene.obstacles_for(part)
         lo, hi = scene.lo[other], scene.hi[other]
         depth = np.minimum(rows[:, None, 1], hi[None]) - np.maximum(rows[:, None, 0], lo[None])
         hits = (depth > self._tolerance).all(axis=-1)
         out = np.zeros((len(combos) * len(BODIES), len(KINDS)), dtype=np.int64)
         for k in range(len(KINDS)):
-            bits = np.where(hits & (scene.kind[other] == k), scene.bits[other], 0)
+            bits = np.where(hits & (scene.column[other] == k), scene.bits[other], 0)
             np.bitwise_or.at(out[:, k], keys, np.bitwise_or.reduce(bits, axis=1))
         return out.reshape(len(combos), N_CATEGORIES)
 
@@ -294,16 +351,14 @@ class RobotCell:
         scene: Scene,
         part: int,
         grasps: list[Grasp],
-        motions: list[Motion],
+        samples: list[np.ndarray],
         combos: list[tuple[int, int]],
         arm: int,
     ) -> list[list[tuple[int, bool, np.ndarray]]]:
         """Per combo, (branch, clear of table and self, category masks) of the arm's usable IK
-        branches (at most `max_branches`, preferred first); [] if none reaches."""
+        branches (at most `max_branches`, preferred first); [] if none reaches. `samples` holds
+        per combo the TCP positions (mm) along its motion."""
         kin = self.arms[arm]
-        samples = [
-            tcp_samples(grasps[g].tcp, motions[m], self.config.arm_sample_step) for g, m in combos
-        ]
         bounds = np.cumsum([0, *(len(s) for s in samples)])
         tcp = np.concatenate(samples) * mjcf.MM
         yaw = np.concatenate(
@@ -333,7 +388,7 @@ class RobotCell:
             for link, owner, kind in self._contacts(arm):
                 if owner == -1:
                     clear[pair_of[k]] = False
-                elif owner != part:
+                elif owner != part or KINDS[kind] == "post":
                     masks[pair_of[k], category(f"arm_{mjcf.LINKS[link]}", KINDS[kind])] |= (
                         np.int64(1) << owner
                     )
@@ -348,12 +403,15 @@ class RobotCell:
         radii = self._radii[None, :, None]
         lo = np.minimum(points[:, :-1], points[:, 1:]) - radii
         hi = np.maximum(points[:, :-1], points[:, 1:]) + radii
-        other = scene.owner != part
+        other = scene.obstacles_for(part)
         olo, ohi = scene.lo[other], scene.hi[other]
-        depth = np.minimum(hi[:, :, None], ohi[None, None]) - np.maximum(
-            lo[:, :, None], olo[None, None]
+        # Only links reaching down to the obstacles' top can meet them (most stay far above).
+        sample, link = np.nonzero(lo[:, :, 2] < ohi[:, 2].max(initial=0.0) - self._tolerance)
+        depth = np.minimum(hi[sample, link, None], ohi[None]) - np.maximum(
+            lo[sample, link, None], olo[None]
         )
-        near = (depth > self._tolerance).all(axis=-1).any(axis=(1, 2))
+        near = np.zeros(len(points), dtype=bool)
+        near[sample[(depth > self._tolerance).all(axis=-1).any(axis=1)]] = True
         near |= (lo[:, :, 2] < -self._tolerance).any(axis=1)
         for a, b in ((0, 2), (0, 3), (1, 3)):
             near |= ((np.minimum(hi[:, a], hi[:, b]) - np.maximum(lo[:, a], lo[:, b])) > 0).all(
@@ -362,8 +420,8 @@ class RobotCell:
         return near
 
     def _contacts(self, arm: int) -> list[tuple[int, int, int]]:
-        """(link, owner part, kind) of the arm's penetrating contacts in the current pose; owner
-        −1 for the table or the arm itself."""
+        """(link, owner part, obstacle kind index in `KINDS`) of the arm's penetrating contacts
+        in the current pose; owner −1 for the table or the arm itself."""
         mujoco.mj_kinematics(self.model, self.data)
         mujoco.mj_collision(self.model, self.data)
         ncon = self.data.ncon
@@ -395,14 +453,16 @@ class RobotCell:
         rules: Mapping[str, bool] | None = None,
     ) -> bool:
         """Uncached reference: only the parts of `placed` (and, with the clamps rule, their
-        clamps) in MuJoCo; True if some arm, IK branch and grasp place `part` along `motion`
-        with nothing penetrating, the tool sampled every `REFERENCE_STEP_MM` and the arm at the
-        cached samples. Rules switched off in `rules` are not checked."""
+        clamps' arms and every clamp post) in MuJoCo; True if some arm, IK branch and grasp
+        place `part` along `motion` with nothing penetrating, the tool sampled every
+        `REFERENCE_STEP_MM` and the arm at the cached samples. Rules switched off in `rules` are
+        not checked."""
         on = {r: True for r in RULES} | dict(rules or {})
         if on["joints"] and motion.joint_blockers & placed & ~(1 << part):
             return False
         scene = self.scene(assembly)
-        self._load(scene, [i for i in mask_to_parts(placed) if i != part], clamps=on["clamps"])
+        before = [i for i in mask_to_parts(placed) if i != part]
+        self._load(scene, scene.present(before, clamps=on["clamps"]))
         held = part_boxes(assembly.parts[part])
         enabled = np.array(
             [on["fingers"], on["fingers"], on["palm"], on["held_part"], on["held_part"]]
@@ -419,7 +479,7 @@ class RobotCell:
             self.model.geom_contype[self._tool] = mjcf.TOOL_BIT
             self._place(self._tool, np.zeros((0, 2, 3)), self._tool_parked)
             self.data.qpos[:] = 0.0
-            self._load(scene, list(range(assembly.n_parts)), clamps=True)
+            self._load(scene, scene.present(list(range(assembly.n_parts))))
 
     def _tool_clear(self, motion: Motion) -> bool:
         for offset in tcp_samples((0.0, 0.0, 0.0), motion, REFERENCE_STEP_MM):
@@ -491,4 +551,4 @@ class RobotCell:
         )
         now = placed | 1 << part
         parts = {i: scene.boxes_of([i]) for i in mask_to_parts(now)}
-        return CellPose(angles, bodies, tool, parts)
+        return CellPose(angles, bodies, tool, parts, scene.posts())
