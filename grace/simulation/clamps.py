@@ -8,14 +8,16 @@ profile is placed and the gripper has left, so the arm is an obstacle for later 
 shares the profile's bit in the blocker masks; a post is there in every state). The arm rides on
 the post's rod, so the post reaches up to the arm's top.
 
-The fixture designer puts each post as near its profile's middle as there is room (no part's
-footprint and no other post within its footprint), ties to the side facing the frame's centre,
-then the lower position: parts come in from outside the frame (a stem slides along its hosts'
-grooves from their open ends, a host along its axis from beyond its end), so a post outside
-would stand in those paths, e.g. in the way of the last rung of a rectangle. A profile with no
-free spot on either side gets no clamp. The placement is a function of the assembly's geometry
-alone, so it is the same for every order and every simulator, and an imported assembly gets the
-same clamps.
+The fixture designer puts each post on a free spot beside its profile (no other part's
+footprint and no other post within its footprint), preferring spots that leave a finger's
+thickness of room to every other part and post (a post in a narrower gap would shut the
+gripper out of it on both sides), then the spot nearest the profile's middle, then the side
+facing the frame's centre, then the lower position. Parts come in from outside the frame (a
+stem slides along its hosts' grooves from their open ends, a host along its axis from beyond
+its end), so a post outside would stand in those paths, e.g. in the way of the last rung of a
+rectangle. A profile with no free spot on either side gets no clamp. The placement is a
+function of the assembly's geometry alone, so it is the same for every order and every
+simulator, and an imported assembly gets the same clamps.
 """
 
 from __future__ import annotations
@@ -29,17 +31,21 @@ from grace.simulation.joints import Box, axis_of
 HALF = PROFILE_SECTION_MM / 2
 
 
-def clamp_boxes(assembly: Assembly, cfg: ClampConfig, tolerance: float) -> list[np.ndarray]:
+def clamp_boxes(
+    assembly: Assembly, cfg: ClampConfig, clearance: float, tolerance: float
+) -> list[np.ndarray]:
     """Per part, its clamp as k×2×3 boxes (lo, hi) in world mm: the post, then the arm (k = 0
-    for brackets and for a profile without room)."""
-    footprints = [box for p in assembly.parts for box in p.footprint_boxes()]
+    for brackets and for a profile without room); `clearance` is the room (mm) the designer
+    prefers to leave around a post (the gripper's finger thickness)."""
+    footprints = [[box for box in p.footprint_boxes()] for p in assembly.parts]
     centre = np.mean([p.xy for p in assembly.parts], axis=0)
     taken: list[Box] = []
     top = PROFILE_SECTION_MM + cfg.arm_thickness  # the post carries the arm on its top
     out = []
-    for part in assembly.parts:
+    for i, part in enumerate(assembly.parts):
+        others = [box for j, boxes in enumerate(footprints) if j != i for box in boxes]
         spot = (
-            _spot(part, cfg, footprints + taken, centre, tolerance)
+            _spot(part, cfg, others + taken, centre, tolerance, clearance)
             if part.type.is_profile
             else None
         )
@@ -63,7 +69,12 @@ def clamp_boxes(assembly: Assembly, cfg: ClampConfig, tolerance: float) -> list[
 
 
 def _spot(
-    part: Part, cfg: ClampConfig, obstacles: list[Box], centre: np.ndarray, tolerance: float
+    part: Part,
+    cfg: ClampConfig,
+    obstacles: list[Box],
+    centre: np.ndarray,
+    tolerance: float,
+    clearance: float,
 ) -> tuple[Box, Box] | None:
     u = axis_of(part)
     n = np.array([-u[1], u[0]])
@@ -71,12 +82,15 @@ def _spot(
     steps = int(half_span // cfg.grid)
     positions = np.arange(-steps, steps + 1) * cfg.grid
     outward = float((np.asarray(part.xy) - centre) @ n)
-    best: tuple[tuple[float, float, float], tuple[Box, Box]] | None = None
+    best: tuple[tuple[bool, float, float, float], tuple[Box, Box]] | None = None
     blocks = np.array(obstacles).reshape(-1, 4)
+    room = blocks + np.array([-clearance, -clearance, clearance, clearance])
     for side in (1.0, -1.0):
         free = _free(part, u, n * side, positions, cfg, blocks, tolerance)
-        for at in positions[free]:
-            key = (-abs(float(at)), -side * outward, -float(at))
+        clear = _free(part, u, n * side, positions, cfg, room, tolerance)
+        for k in np.flatnonzero(free):
+            at = float(positions[k])
+            key = (bool(clear[k]), -abs(at), -side * outward, -at)
             if best is None or key > best[0]:
                 best = (key, _boxes(part, u, n * side, float(at), cfg))
     return None if best is None else best[1]

@@ -228,7 +228,8 @@ class RobotCell:
                 f"{CONFIG_DIR}/cell: field 'max_parts' = {self.config.max_parts} is too small for "
                 f"assembly '{assembly.name}' of {assembly.n_parts} parts; raise it"
             )
-        clamps = clamp_boxes(assembly, self.config.clamp, self._tolerance)
+        room = self.config.gripper.finger_thickness
+        clamps = clamp_boxes(assembly, self.config.clamp, room, self._tolerance)
         boxes, owner, kind, fixed = [], [], [], []
         for i, part in enumerate(assembly.parts):
             for k, group in enumerate((part_boxes(part), clamps[i])):
