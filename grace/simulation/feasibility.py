@@ -4,8 +4,9 @@ Placing part p when the set S (a bitmask) is placed is feasible iff
 - fixation holds: the first part is a profile (clamped); a later profile touches a part of S; a
   bracket needs one of the two profiles it joins in S (it is fastened to it), and
 - the cell has an option (arm, IK branch, grasp, motion) that is usable (reach: IK within the
-  limits along the motion; arm links: clear of table and itself) and none of whose blocker
-  masks for the active rules meets S.
+  limits along the motion; arm links: clear of table and itself; with the clamps rule, no robot
+  body of an active rule hits a clamp post, which stands from the start) and none of whose
+  blocker masks for the active rules meets S.
 
 The cell's options are computed once per part with all other parts present, so enumerating the
 reachable states (`GroundTruth.explore_many`) is bitmask work, not N! simulations. Switching a
@@ -191,6 +192,10 @@ def _minimal(masks: np.ndarray) -> np.ndarray:
     return np.array(out, dtype=np.int64)
 
 
+def _same(a: list[np.ndarray], b: list[np.ndarray]) -> bool:
+    return all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
+
+
 def rule_check(
     fixation: Fixation, blockers: list[np.ndarray], fixation_on: bool = True
 ) -> Callable[[np.ndarray, int], np.ndarray]:
@@ -241,14 +246,20 @@ def label(
     fixation = Fixation.of(assembly, touch)
     table = OptionTable.build(assembly, options, fixation)
     active = [r for r in RULES if r in rules]
-    check = rule_check(fixation, table.blockers(active), "fixation" in active)
-    truth = GroundTruth.explore_many(n, check)
+    blockers = table.blockers(active)
+    truth = GroundTruth.explore_many(n, rule_check(fixation, blockers, "fixation" in active))
     fixed = GroundTruth.explore_many(n, fixation.holds, naive_checks=False)
-    decisive = [
-        r
-        for r in active
-        if not explore(n, fixation, table, [x for x in active if x != r]).same_orders(truth)
-    ]
+
+    def decides(rule: str) -> bool:
+        rest = [x for x in active if x != rule]
+        other = table.blockers(rest)
+        # A rule that changes no part's blocker masks cannot change the orders: skip its search.
+        if rule != "fixation" and _same(other, blockers):
+            return False
+        check = rule_check(fixation, other, "fixation" in rest)
+        return not GroundTruth.explore_many(n, check, naive_checks=False).same_orders(truth)
+
+    decisive = [r for r in active if decides(r)]
     info: dict[str, Any] = {
         "cause": None,
         "mechanisms": [],
@@ -260,7 +271,7 @@ def label(
     }
     if truth.feasible:
         info["robot_pruned"] = info["orders"] < info["fixation_orders"]
-        info["nonlocal_block"] = nonlocal_block(truth, fixation, table.blockers(active))
+        info["nonlocal_block"] = nonlocal_block(truth, fixation, blockers)
         return LabelledAssembly(assembly, truth, info)
     if not fixed.feasible:
         info["cause"] = "other"
@@ -268,7 +279,15 @@ def label(
         info["cause"] = "collision"
     else:
         info["cause"] = "reach"
-    found = [m for m in MECHANISMS if explore(n, fixation, table, active, relax=m).feasible]
+
+    def lifts(mechanism: str) -> bool:
+        relaxed = table.blockers(active, mechanism)
+        if _same(relaxed, blockers):  # nothing of it blocks here: still infeasible
+            return False
+        check = rule_check(fixation, relaxed, "fixation" in active)
+        return GroundTruth.explore_many(n, check, naive_checks=False).feasible
+
+    found = [m for m in MECHANISMS if lifts(m)]
     info["mechanisms"] = found or ["compound"]
     return LabelledAssembly(assembly, truth, info)
 

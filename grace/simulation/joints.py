@@ -6,10 +6,12 @@ groove, from the profile's end, or through the groove's mouth while the part car
 pushed in horizontally; never vertically through the groove's lips. Hence:
 
 - a stem (a profile whose end meets another's long side) placed after its host slides its last
-  stretch along its own axis into the joint; it cannot be lowered onto a placed host;
+  stretch along its own axis into the joint, or slides sideways along the host's groove,
+  entering it from an open end (`side_slides`); it cannot be lowered onto a placed host;
 - a host placed after stems or brackets fastened to its side slides along its own axis until
   every such connector has entered its groove from the leading end;
-- a profile joined at both ends cannot slide into one host while the other is placed.
+- a profile joined at both ends cannot slide along its axis into one host while the other is
+  placed; sideways it enters both grooves at once.
 
 A motion records, as `joint_blockers`, the placed parts whose connection it cannot make.
 Everything works on table footprints (`Part.footprint_boxes`, docs/assembly-graph.md), in mm.
