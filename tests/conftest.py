@@ -10,11 +10,13 @@ into the test's `tmp_path` (`tmp_path/output`, `tmp_path/data`) and HydraConfig 
         run(cfg)  # call the task function directly
 
 Overrides use the command-line syntax, including `~group` to drop a default that a test does not
-need. `fake_simulator` is a config for :class:`FakeSimulator`, a tiny deterministic stand-in
-with the real simulator's interface (generate / label / sample and the same `info` keys), for
-tests of the layers above the simulator that must not depend on its speed or tuning; tests get
-an instance with `hydra.utils.instantiate(fake_simulator)`. Never `import conftest`: every test
-folder's conftest shares that module name, so this module is also registered under the stable
+need. `samples` are small labelled assemblies (FakeSimulator rows plus a frame with a
+bracket) for the model and training tests. `fake_simulator` is a config for
+:class:`FakeSimulator`, a tiny deterministic stand-in with the real simulator's interface
+(generate / label / sample and the same `info` keys), for tests of the layers above the
+simulator that must not depend on its speed or tuning; tests get an instance with
+`hydra.utils.instantiate(fake_simulator)`. Never `import conftest`: every test folder's
+conftest shares that module name, so this module is also registered under the stable
 name `grace_tests_conftest`, which the config's `_target_` uses (worker processes inherit it).
 """
 
@@ -30,13 +32,14 @@ import pytest
 from hydra import compose, initialize_config_dir
 from hydra.core.global_hydra import GlobalHydra
 from hydra.core.hydra_config import HydraConfig
+from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf, open_dict
 
 from grace import CONF_DIR
+from grace.cli.schemas import register_schemas
 from grace.domain.assembly import Assembly, Part, PartType, canonical_order, planar_pose
 from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
-from grace.tasks.schemas import register_schemas
 
 MODULE_ALIAS = "grace_tests_conftest"
 sys.modules[MODULE_ALIAS] = sys.modules[__name__]
@@ -137,3 +140,27 @@ class FakeSimulator:
 def fake_simulator() -> DictConfig:
     """A `simulator` config that instantiates :class:`FakeSimulator`."""
     return OmegaConf.create({"_target_": f"{MODULE_ALIAS}.FakeSimulator", "spacing": 250.0})
+
+
+def bracket_frame() -> LabelledAssembly:
+    """Bar, post and a bracket in their corner; the bracket needs both profiles placed."""
+    assembly = Assembly(
+        (
+            Part("bar", PartType.PROFILE_300, planar_pose(0.0, 0.0, 1)),
+            Part("post", PartType.PROFILE_200, planar_pose(0.0, 120.0)),
+            Part("bracket", PartType.BRACKET, planar_pose(20.0, 20.0)),
+        )
+    )
+    truth = GroundTruth.explore(3, lambda state, part: part != 2 or state == 0b011)
+    return LabelledAssembly(assembly, truth)
+
+
+@pytest.fixture
+def samples(fake_simulator) -> list[LabelledAssembly]:
+    """The bracket frame, five feasible rows of 3–6 parts and one infeasible row."""
+    simulator = instantiate(fake_simulator)
+    rng = np.random.default_rng(0)
+    drawn = [simulator.sample(n, rng) for n in (3, 4, 5, 6) * 8]
+    feasible = [s for s in drawn if s.truth.feasible and s.size > 3][:5]
+    infeasible = [s for s in drawn if not s.truth.feasible][:1]
+    return [bracket_frame(), *feasible, *infeasible]

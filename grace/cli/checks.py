@@ -1,6 +1,6 @@
 """Checks of a composed config that need no data: run before anything is generated or loaded.
 
-Types are checked by the typed schemas when the config is composed (grace/tasks/schemas.py);
+Types are checked by the typed schemas when the config is composed (grace/cli/schemas.py);
 here come the checks across keys: the protocol's sizes are in the data set, every fold gets test
 and training assemblies, and overridden options that the chosen protocol ignores. The data set's
 size → count is known up front (`dataset.sizes` of a generated set; the cached import of a raw
@@ -8,6 +8,8 @@ one), so a bad combination fails in a second, not after generation.
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
@@ -23,6 +25,18 @@ PROTOCOL_KEYS = ("train_size", "test_size")
 
 def _list(node: object) -> list[int] | None:
     return None if node is None else [int(v) for v in OmegaConf.to_object(node)]
+
+
+def protocol_split(proto: DictConfig, available: Sequence[int]) -> tuple[list[int], list[int]]:
+    """Train and test sizes of the configured protocol `proto` over the `available` sizes."""
+    return protocol_sizes(
+        proto.name,
+        available,
+        _list(proto.train_sizes),
+        _list(proto.test_sizes),
+        _list(proto.train_exclude) or [],
+        _list(proto.test_exclude) or [],
+    )
 
 
 def ignored_options(cfg: DictConfig, overrides: list[str]) -> list[str]:
@@ -48,14 +62,7 @@ def check_config(cfg: DictConfig) -> None:
     counts = source.counts() if hasattr(source, "counts") else None
     proto = cfg.protocol
     if counts is not None:
-        train, test = protocol_sizes(
-            proto.name,
-            sorted(counts),
-            _list(proto.train_sizes),
-            _list(proto.test_sizes),
-            _list(proto.train_exclude) or [],
-            _list(proto.test_exclude) or [],
-        )
+        train, test = protocol_split(proto, sorted(counts))
         check_fold_sizes(
             proto.name, counts, train, test, int(proto.folds), float(proto.val_fraction)
         )

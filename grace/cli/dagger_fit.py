@@ -1,4 +1,4 @@
-"""Train on the states the planner visits: one DAgger-style round (issue 10, item 2).
+"""Train on the states the planner visits: one DAgger-style round.
 
 A model trained on the ground-truth orders only has never seen the states its own planner enters
 after a wrong step. `train_dagger` trains a first model as the configured fit does, runs
@@ -17,29 +17,13 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import lightning.pytorch as pl
-import numpy as np
 from omegaconf import DictConfig
 
+from grace.cli.fit import train_module
 from grace.domain.sample import LabelledAssembly
-from grace.graphs.datamodule import state_masks, training_states
 from grace.model.module import GraceModule
 from grace.model.scoring import make_scorer
-from grace.planning.sequences import Scorer, score_states
-from grace.tasks.training import train_module
-
-
-def visited_states(
-    scorer: Scorer, samples: Sequence[LabelledAssembly], threshold: float, states: str
-) -> dict[int, tuple[np.ndarray, np.ndarray]]:
-    """Per sample index: the states Algorithm 1 scores at λ = `threshold` that the `states`
-    training set lacks, with their ground-truth labels (only samples with any)."""
-    extra = {}
-    for i, sample in enumerate(samples):
-        seen = score_states(scorer, sample.assembly, threshold).scored()
-        new = np.setdiff1d(seen, training_states(sample, states)[0])
-        if new.size:
-            extra[i] = (new, state_masks(sample.truth, new)[0])
-    return extra
+from grace.planning.visited import visited_states
 
 
 def train_dagger(

@@ -3,7 +3,7 @@
 `cfg.model` gives the GraceModule (network, encoding, implementation, optimiser and scheduler as
 partials), `cfg.datamodule` the DataModule (a partial completed with the assemblies and the
 model's encoding and collate function), `cfg.callbacks` and `cfg.logger` the named callbacks and
-loggers, `cfg.trainer` the Lightning Trainer. grace.model.training.fit gets the objects.
+loggers, `cfg.trainer` the Lightning Trainer. grace.model.fit.fit gets the objects.
 """
 
 from __future__ import annotations
@@ -20,12 +20,9 @@ from omegaconf import DictConfig, OmegaConf, open_dict
 from grace.data.atomic import write_text_atomic
 from grace.domain.sample import LabelledAssembly
 from grace.errors import UserError
+from grace.model.checkpoints import KEPT_CONFIG
+from grace.model.fit import fit
 from grace.model.module import GraceModule
-from grace.model.training import fit
-
-KEPT_CONFIG = "config.yaml"
-"""The resolved config of a training run, kept in its folder beside `checkpoints/` so that the
-model can be rebuilt later (task=plan)."""
 
 
 def _resolved(cfg: DictConfig) -> dict:
@@ -74,7 +71,7 @@ def train_module(
 
     Checkpoints, logs and the run's config (config.yaml) go under `out_dir`; `callbacks` are
     added to the configured ones. `extra_states` adds (states, label masks) to `train[i]` by
-    index (grace/tasks/dagger.py).
+    index (grace/cli/dagger_fit.py).
     """
     if not train:
         raise UserError(

@@ -1,7 +1,7 @@
 """The command line checked before any work: one line per user error, nothing written.
 
 `python -m grace <overrides>` first composes the config with the light schemas (no torch, no
-Lightning: about a second) and runs grace/tasks/checks.py on it, then composes it again with every
+Lightning: about a second) and runs grace/cli/checks.py on it, then composes it again with every
 schema once the heavy libraries are loaded. Only then does Hydra create the run folder and run
 the task, so a bad override, a missing or malformed data folder or a protocol the data set cannot
 serve stops the run before anything exists on disk. Sweeps (`-m`) are checked per job instead.
@@ -26,9 +26,9 @@ from omegaconf import DictConfig
 from omegaconf.errors import OmegaConfBaseException
 
 from grace import CONF_DIR
+from grace.cli.checks import check_config, ignored_options
+from grace.cli.schemas import light_schemas, referenced_schemas, register_schemas
 from grace.errors import UserError
-from grace.tasks.checks import check_config, ignored_options
-from grace.tasks.schemas import light_schemas, referenced_schemas, register_schemas
 
 EXIT_USER_ERROR = 2
 CONFIG_ERRORS = (UserError, HydraException, OmegaConfBaseException)

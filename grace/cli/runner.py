@@ -12,8 +12,8 @@ from hydra.utils import instantiate
 from lightning.pytorch import seed_everything
 from omegaconf import MISSING, DictConfig
 
-from grace.tasks.checks import check_config, ignored_options
-from grace.tasks.logs import quiet_terminal
+from grace.cli.checks import check_config, ignored_options
+from grace.cli.logs import quiet_terminal
 
 log = logging.getLogger(__name__)
 
@@ -33,7 +33,7 @@ def task_overrides() -> list[str]:
 
 
 def run_task(cfg: DictConfig) -> float | None:
-    """Check the config (grace/tasks/checks.py), seed, cap the threads, run `cfg.task.run(cfg)`;
+    """Check the config (grace/cli/checks.py), seed, cap the threads, run `cfg.task.run(cfg)`;
     its return value is the sweep objective."""
     quiet_terminal(cfg.paths.log_file)
     seed_everything(cfg.seed, workers=True, verbose=False)

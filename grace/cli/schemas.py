@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import enum
+import importlib
 import inspect
 import types
 import typing
@@ -180,7 +181,7 @@ class RootConfig:
 
 def light_schemas() -> dict[str, type]:
     """The schemas whose modules import neither torch nor Lightning: enough to check a command
-    line in a second, before the heavy libraries load (grace/tasks/preflight.py)."""
+    line in a second, before the heavy libraries load (grace/cli/preflight.py)."""
     return {
         "dataset/generated": schema(
             GeneratedSource, meta={"_recursive_": False, "_convert_": "all"}
@@ -197,20 +198,11 @@ def heavy_schemas() -> dict[str, type]:
     from lightning.pytorch.callbacks import EarlyStopping, ModelCheckpoint
     from lightning.pytorch.loggers import CSVLogger, TensorBoardLogger
 
+    from grace.cli.tune_space import TuneConfig
     from grace.graphs.datamodule import StateDataModule
     from grace.graphs.encoding import GraphEncoding
     from grace.model.grace_pyg import NetConfig
     from grace.model.module import GraceModule
-    from grace.tasks.bench import BenchSettings
-    from grace.tasks.experiment import ExperimentSettings
-    from grace.tasks.feasibility import FeasibilitySettings
-    from grace.tasks.gather import GatherSettings
-    from grace.tasks.generate import GenerateSettings
-    from grace.tasks.plan import PlanSettings
-    from grace.tasks.replay import ReplaySettings
-    from grace.tasks.train import TrainSettings
-    from grace.tasks.tune import TuneSettings
-    from grace.tasks.tune_space import TuneConfig
 
     return {
         "model": schema(
@@ -225,17 +217,28 @@ def heavy_schemas() -> dict[str, type]:
         "callbacks/model_checkpoint": schema(ModelCheckpoint),
         "logger/csv": schema(CSVLogger),
         "logger/tensorboard": schema(TensorBoardLogger),
-        "task/experiment": ExperimentSettings,
-        "task/train": TrainSettings,
-        "task/generate": GenerateSettings,
-        "task/bench": BenchSettings,
-        "task/gather": GatherSettings,
-        "task/feasibility": FeasibilitySettings,
-        "task/plan": PlanSettings,
-        "task/replay": ReplaySettings,
-        "task/tune": TuneSettings,
         "tune": TuneConfig,
-    }
+    } | task_schemas()
+
+
+def task_schemas(conf_dir: Path = CONF_DIR) -> dict[str, type]:
+    """`task/<name>` → the schema of each task config: the TaskSettings subclass defined in the
+    module of its `run` target. The task layer sits above this one, so its modules are found the
+    way Hydra finds every target: by the name the config gives."""
+    from grace.cli.runner import TaskSettings
+
+    out = {}
+    for path in sorted((conf_dir / "task").glob("*.yaml")):
+        module = importlib.import_module(OmegaConf.load(path).run._target_.rpartition(".")[0])
+        (settings,) = (
+            kind
+            for kind in vars(module).values()
+            if isinstance(kind, type)
+            and issubclass(kind, TaskSettings)
+            and kind.__module__ == module.__name__
+        )
+        out[f"task/{path.stem}"] = settings
+    return out
 
 
 def referenced_schemas(conf_dir: Path = CONF_DIR) -> set[str]:

@@ -22,8 +22,8 @@ import matplotlib.pyplot as plt
 import optuna
 from omegaconf import DictConfig, OmegaConf
 
+from grace.cli.tune_space import nested
 from grace.data.atomic import write_text_atomic
-from grace.tasks.tune_space import nested
 from grace.visualisation.plots import save_figure
 
 log = logging.getLogger(__name__)

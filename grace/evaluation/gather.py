@@ -1,42 +1,36 @@
-"""`python -m grace task=gather task.roots=[multirun/table2]`: combine runs into the paper's tables.
+"""Runs combined into the paper's tables: what task=gather and task=report read and pool.
 
-Reads every results.json under the given folders and writes gather.md and gather.json into the run
-folder: Table 2 (intra-sized beside many-to-one, one column per test size; strict figures first,
-as in results.md), Table 3 (one-to-many: a row per training size, with the strict P@1 beside the
-paper's two AUCs). Runs that differ in anything but the protocol and its sizes (a model
-variant, as in the ablation sweep) get their own block of rows, labelled by those overrides;
-baselines appear as variants of their own. Runs that differ only in `seed` (or `dataset.seed`)
-are replicates, not variants: their cells pool them (mean ± std over the runs' fold means,
-counts summed) and the block's label says how many seeds, e.g. the `seeds` sweep
+Every results.json under the given folders is read (grace/evaluation/results.py): Table 2
+(intra-sized beside many-to-one, one column per test size; strict figures first, as in
+results.md), Table 3 (one-to-many: a row per training size, with the strict P@1 beside the
+paper's two AUCs). Runs that differ in anything but the protocol and its sizes (a model variant,
+as in the ablation sweep) get their own block of rows, labelled by those overrides; baselines
+appear as variants of their own. Runs that differ only in `seed` (or `dataset.seed`) are
+replicates, not variants: their cells pool them (mean ± std over the runs' fold means, counts
+summed) and the block's label says how many seeds, e.g. the `seeds` sweep
 (`python -m grace -m seed=0,1,2 dataset.seed=0`: training seeds on one data set) gathers into
 one block.
 """
 
 from __future__ import annotations
 
-import json
-import logging
+import dataclasses
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from omegaconf import MISSING, DictConfig
-
-from grace.data.atomic import write_text_atomic
 from grace.errors import UserError
-from grace.evaluation.report import METRIC_ROWS, cell, lookup, mean_std
-from grace.tasks.runner import TaskSettings
-
-log = logging.getLogger(__name__)
-
-
-@dataclass
-class GatherSettings(TaskSettings):
-    """Schema of `task=gather` (values in grace/conf/task/gather.yaml)."""
-
-    roots: list[str] = MISSING
-
+from grace.evaluation.report import mean_std
+from grace.evaluation.results import (
+    RESULTS_FILE,
+    CountedStat,
+    ExperimentResults,
+    SizeSummary,
+    Stat,
+    read_results,
+)
+from grace.evaluation.tables import cell, markdown_table, metrics_table, p_at_k, value
 
 SIZE_KEYS = ("protocol", "test_size", "train_size")
 """Overrides that choose the protocol and its sizes, not a variant."""
@@ -44,37 +38,42 @@ SIZE_KEYS = ("protocol", "test_size", "train_size")
 REPLICATE_KEYS = ("seed", "dataset.seed")
 """Overrides that repeat a run rather than vary it: such runs are pooled."""
 
-
-def _replicate(results: dict) -> tuple:
-    """Which repeat a run is: its training seed and its data set's (absent in older runs)."""
-    run = results.get("run", {})
-    return run.get("seed"), run.get("data_seed")
+ONE_TO_MANY = "one_to_many"
+"""The protocol of Table 3; the others fill Table 2."""
 
 
 def find_results(roots: Iterable[str | Path]) -> list[Path]:
-    """Every results.json under the roots, sorted."""
+    """Every results.json under the roots, sorted (a UserError if there is none)."""
+    roots = [Path(root) for root in roots]
     found = []
     for root in roots:
-        root = Path(root)
         if not root.exists():
             raise UserError(
                 f"task.roots: {root} does not exist; pass the sweep folder(s) holding the runs"
             )
-        found += sorted(root.rglob("results.json"))
+        found += sorted(root.rglob(RESULTS_FILE))
+    if not found:
+        shown = [str(root) for root in roots]
+        raise UserError(f"task.roots {shown}: no {RESULTS_FILE} found; run a sweep first")
     return found
 
 
-def _variant_overrides(results: dict) -> dict[str, str]:
+def _replicate(results: ExperimentResults) -> tuple:
+    """Which repeat a run is: its training seed and its data set's (absent in older runs)."""
+    return (None, None) if results.run is None else (results.run.seed, results.run.data_seed)
+
+
+def _variant_overrides(results: ExperimentResults) -> dict[str, str]:
     out = {}
-    for override in results.get("run", {}).get("overrides", []):
-        key, _, value = override.partition("=")
+    for override in [] if results.run is None else results.run.overrides:
+        key, _, value_ = override.partition("=")
         key = key.lstrip("+~")
         if key.split(".")[0] not in SIZE_KEYS and key not in REPLICATE_KEYS:
-            out[key] = value
+            out[key] = value_
     return out
 
 
-def variants(runs: list[dict]) -> list[str]:
+def variants(runs: list[ExperimentResults]) -> list[str]:
     """Label of each run: the overrides whose values differ between the gathered runs.
 
     Settings shared by every run (e.g. scale=paper) and the protocol/size overrides say nothing
@@ -87,45 +86,71 @@ def variants(runs: list[dict]) -> list[str]:
 
 
 def pool(entries: list[Any]) -> Any:
-    """Entries of runs that differ only in their seed, as one: a metric ({"mean", "std"}) becomes
-    the mean ± std over the runs' means with the number of `runs`; counts are summed."""
+    """Entries of runs that differ only in their seed, as one: a metric becomes the mean ± std
+    over the runs' means with the number of `runs`; counts are summed; a metric that one run
+    lacks is left out."""
     first = entries[0]
     if len(entries) == 1:
         return first
-    if isinstance(first, dict) and "mean" in first:
-        stat = mean_std([e["mean"] for e in entries])
-        if stat is None:
-            return None
-        stat["runs"] = len(entries)
-        for count in ("assemblies", "empty"):
-            if all(count in e for e in entries):
-                stat[count] = sum(e[count] for e in entries)
-        return stat
+    if any(e is None for e in entries):
+        return None
+    if isinstance(first, Stat | CountedStat):
+        stat = mean_std([e.mean for e in entries])
+        if isinstance(first, Stat):
+            return Stat(mean=stat.mean, std=stat.std, runs=len(entries))
+        return CountedStat(
+            mean=stat.mean,
+            std=stat.std,
+            runs=len(entries),
+            assemblies=sum(e.assemblies for e in entries),
+            empty=sum(e.empty for e in entries),
+        )
+    if dataclasses.is_dataclass(first):
+        return type(first)(
+            **{
+                f.name: pool([getattr(e, f.name) for e in entries])
+                for f in dataclasses.fields(first)
+            }
+        )
     if isinstance(first, dict):
-        keys = [k for k in first if all(isinstance(e, dict) and k in e for e in entries)]
+        keys = [k for k in first if all(k in e for e in entries)]
         pooled = {k: pool([e[k] for e in entries]) for k in keys}
-        return {k: v for k, v in pooled.items() if v is not None}
+        return {k: v for k, v in pooled.items() if v is not None} or None
     if all(isinstance(e, int) for e in entries):
         return sum(entries)
     return first
 
 
-def collect(paths: Iterable[Path]) -> dict:
-    """Per variant: {"table2": {protocol: {size: entry}}, "table3": {train size: {size: entry}}}.
+@dataclass
+class Gathered:
+    """The gathered runs: per variant (and baseline) label, Table 2's entries by protocol and
+    test size, Table 3's by training sizes ("4" or "4+5") and test size; pooled over seeds."""
+
+    table2: dict[str, dict[str, dict[str, SizeSummary]]] = field(default_factory=dict)
+    table3: dict[str, dict[str, dict[str, SizeSummary]]] = field(default_factory=dict)
+    runs: list[str] = field(default_factory=list)
+
+
+def collect(paths: Iterable[Path]) -> Gathered:
+    """The runs of `paths` (results.json files) pooled into Table 2 and Table 3 entries."""
+    paths = list(paths)
+    return gather_runs([read_results(path) for path in paths], paths)
+
+
+def gather_runs(runs: list[ExperimentResults], paths: list[Path]) -> Gathered:
+    """`runs` (read from `paths`) pooled into Table 2 and Table 3 entries.
 
     A variant run with several seeds is labelled "<variant> (<n> seeds)", its entries pooled.
     """
-    runs = [json.loads(Path(path).read_text()) for path in paths]
     tables: dict[str, dict] = {"table2": {}, "table3": {}}
     seeds: dict[str, set] = {}
     for results, label in zip(runs, variants(runs), strict=True):
-        policies = {label: results["per_size"]}
-        for name, baseline in results.get("baselines", {}).items():
-            policies[name] = baseline["per_size"]
-        if results["protocol"] == "one_to_many":
-            table, key = "table3", "+".join(str(s) for s in results["train_sizes"])
+        policies = results.policies()
+        policies[label] = policies.pop("GRACE")
+        if results.protocol == ONE_TO_MANY:
+            table, key = "table3", "+".join(str(s) for s in results.train_sizes)
         else:
-            table, key = "table2", results["protocol"]
+            table, key = "table2", results.protocol
         seed = _replicate(results)
         for name, per_size in policies.items():
             seeds.setdefault(name, set()).add(seed)
@@ -138,7 +163,7 @@ def collect(paths: Iterable[Path]) -> dict:
         n = len(seeds[name])
         return f"{name} ({n} seeds)" if n > 1 else name
 
-    return {
+    pooled = {
         table: {
             label(name): {
                 key: {size: pool(list(by_seed.values())) for size, by_seed in block.items()}
@@ -148,72 +173,57 @@ def collect(paths: Iterable[Path]) -> dict:
         }
         for table, by_name in tables.items()
     }
+    return Gathered(pooled["table2"], pooled["table3"], [str(p.parent) for p in paths])
 
 
-def _sizes(blocks: Iterable[dict]) -> list[str]:
+def sizes_of(blocks: Iterable[dict]) -> list[str]:
+    """The test sizes of `blocks` ({size: entry}), ascending."""
     return sorted({s for block in blocks for s in block}, key=int)
 
 
-def table2_markdown(table2: dict) -> str:
+def table2_markdown(table2: dict[str, dict[str, dict[str, SizeSummary]]]) -> str:
     """Paper Table 2: metrics × (protocol, size), a block of rows per variant."""
     protocols = sorted({p for v in table2.values() for p in v}, key=lambda p: p != "intra")
-    columns = [(p, s) for p in protocols for s in _sizes(v.get(p, {}) for v in table2.values())]
-    head = "| Variant | Metric | " + " | ".join(f"{p} A{s}" for p, s in columns) + " |"
-    lines = [head, "|" + " --- |" * (len(columns) + 2)]
-    for name, by_protocol in table2.items():
-        for label, path in METRIC_ROWS:
-            cells = [cell(lookup(by_protocol.get(p, {}).get(s), path)) for p, s in columns]
-            lines.append(f"| {name} | {label} | " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+    columns = [(p, s) for p in protocols for s in sizes_of(v.get(p, {}) for v in table2.values())]
+    blocks = {
+        name: {
+            (p, s): entry for p, per_size in by_protocol.items() for s, entry in per_size.items()
+        }
+        for name, by_protocol in table2.items()
+    }
+    return metrics_table(blocks, [(f"{p} A{s}", (p, s)) for p, s in columns], first="Variant")
 
 
 TABLE3_COLUMNS = (
-    ("step", ("step_auc",)),
-    ("seq", ("seq_auc",)),
-    ("strict P@1", ("p_at_k_strict", "1")),
+    ("step", lambda e: e.step_auc),
+    ("seq", lambda e: e.seq_auc),
+    ("strict P@1", p_at_k(1, strict=True)),
 )
 """Paper Table 3's step and sequence AUC, then the strict P@1 (an empty retrieval counts 0)."""
 
 
-def table3_markdown(table3: dict) -> str:
+def table3_markdown(table3: dict[str, dict[str, dict[str, SizeSummary]]]) -> str:
     """Paper Table 3: a row per training size; per test size step AUC, sequence AUC, strict P@1."""
-    sizes = _sizes(block for v in table3.values() for block in v.values())
-    columns = [(label, path, s) for label, path in TABLE3_COLUMNS for s in sizes]
-    head = "| Variant | Training set | " + " | ".join(f"{c[0]} A{c[2]}" for c in columns) + " |"
-    lines = [head, "|" + " --- |" * (len(columns) + 2)]
+    sizes = sizes_of(block for v in table3.values() for block in v.values())
+    columns = [(label, metric, s) for label, metric in TABLE3_COLUMNS for s in sizes]
+    rows = []
     for name, by_train in table3.items():
         for train in sorted(by_train, key=lambda t: [int(x) for x in t.split("+")]):
             per_size = by_train[train]
-            cells = [cell(lookup(per_size.get(s), path)) for _, path, s in columns]
-            lines.append(f"| {name} | A{train} | " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+            cells = [cell(value(per_size.get(s), metric)) for _, metric, s in columns]
+            rows.append([name, f"A{train}", *cells])
+    head = ["Variant", "Training set", *(f"{c[0]} A{c[2]}" for c in columns)]
+    return markdown_table(head, rows)
 
 
-def gather_markdown(tables: dict, n_runs: int) -> str:
+def gather_markdown(tables: Gathered) -> str:
+    """gather.md: Table 2 and Table 3 of the gathered runs."""
     parts = [
-        f"# Gathered results ({n_runs} runs; mean ± std over folds, or over the seeds' fold means "
-        "in a block of several seeds)"
+        f"# Gathered results ({len(tables.runs)} runs; mean ± std over folds, or over the seeds' "
+        "fold means in a block of several seeds)"
     ]
-    if tables["table2"]:
-        parts += ["## Table 2: intra-sized and many-to-one", table2_markdown(tables["table2"])]
-    if tables["table3"]:
-        parts += ["## Table 3: one-to-many", table3_markdown(tables["table3"])]
+    if tables.table2:
+        parts += ["## Table 2: intra-sized and many-to-one", table2_markdown(tables.table2)]
+    if tables.table3:
+        parts += ["## Table 3: one-to-many", table3_markdown(tables.table3)]
     return "\n\n".join(parts) + "\n"
-
-
-def run(cfg: DictConfig) -> None:
-    """Gather the runs under `cfg.task.roots` into gather.md and gather.json."""
-    paths = find_results(cfg.task.roots)
-    if not paths:
-        raise UserError(
-            f"task.roots {list(cfg.task.roots)}: no results.json found; run a sweep first"
-        )
-    tables = collect(paths)
-    out_dir = Path(cfg.paths.output_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    tables["runs"] = [str(p.parent) for p in paths]
-    write_text_atomic(out_dir / "gather.json", json.dumps(tables, indent=2) + "\n")
-    markdown = gather_markdown(tables, len(paths))
-    write_text_atomic(out_dir / "gather.md", markdown)
-    print(markdown)
-    log.info("gathered %d runs into %s", len(paths), out_dir)

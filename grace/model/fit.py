@@ -3,20 +3,13 @@
 from __future__ import annotations
 
 import logging
-from pathlib import Path
 
 import lightning.pytorch as pl
-import torch
 
+from grace.model.checkpoints import checkpoint_weights
 from grace.model.module import GraceModule
 
 log = logging.getLogger(__name__)
-
-
-def checkpoint_weights(path: str | Path) -> dict:
-    """The module weights of a Lightning checkpoint this project wrote (a full pickle, which
-    Lightning needs for the objects it stores: our own files are trusted)."""
-    return torch.load(path, map_location="cpu", weights_only=False)["state_dict"]
 
 
 def fit(

@@ -3,10 +3,7 @@ import pytest
 from hydra.utils import instantiate
 from omegaconf import open_dict
 
-from grace.domain.assembly import full_mask
-from grace.graphs.datamodule import StateDataModule, training_states
-from grace.graphs.encoding import GraphEncoding
-from grace.tasks.dagger import train_dagger, visited_states
+from grace.cli.dagger_fit import train_dagger
 
 
 @pytest.fixture
@@ -23,30 +20,6 @@ def _brute_force_label(truth, state):
         return 0
 
 
-def test_a_planner_that_passes_everything_visits_every_state(samples):
-    def accept_all(assembly, states):
-        return np.ones((len(states), assembly.n_parts))
-
-    extra = visited_states(accept_all, samples, 0.5, "orders")
-    for i, sample in enumerate(samples):
-        every = set(range(full_mask(sample.size)))  # all non-complete states
-        expected = sorted(every - set(training_states(sample, "orders")[0].tolist()))
-        states, labels = extra[i]
-        assert states.tolist() == expected
-        assert labels.tolist() == [_brute_force_label(sample.truth, s) for s in expected]
-    assert any(s.truth.feasible for s in samples) and not all(
-        len(s.truth.states) == 2**s.size for s in samples
-    )  # the case has unreachable states, labelled 0
-
-
-def test_a_planner_that_never_passes_visits_only_the_empty_state(samples):
-    def reject_all(assembly, states):
-        return np.zeros((len(states), assembly.n_parts))
-
-    extra = visited_states(reject_all, samples, 0.5, "reachable")
-    assert extra == {}  # the empty state is a training state already
-
-
 def test_dagger_round_trains_twice(cfg_factory, fake_simulator, samples, tmp_path):
     cfg = cfg_factory("trainer.max_epochs=1", "trainer.enable_progress_bar=false", "threads=1")
     with open_dict(cfg):
@@ -54,17 +27,3 @@ def test_dagger_round_trains_twice(cfg_factory, fake_simulator, samples, tmp_pat
     train_dagger(cfg, samples[:4], samples[4:], tmp_path)
     assert (tmp_path / "round_0" / "checkpoints" / "best.ckpt").exists()
     assert (tmp_path / "checkpoints" / "best.ckpt").exists()
-
-
-def test_extra_states_join_the_training_batches(samples):
-    def accept_all(assembly, states):
-        return np.ones((len(states), assembly.n_parts))
-
-    dm = StateDataModule(
-        samples, [], GraphEncoding(), states="orders", batch_size=8, balance_steps=True
-    )
-    extra = visited_states(accept_all, samples, 0.5, "orders")
-    dm.train_set.extend(extra, dm.chunk_size)
-    batches = list(dm.train_dataloader())
-    assert sum(b.n_states for b in batches) == sum(2**s.size - 1 for s in samples)
-    assert sum(len(b.weights) for b in batches) == sum(2**s.size - 1 for s in samples)

@@ -4,13 +4,13 @@ import numpy as np
 import torch
 from hydra.utils import instantiate
 
+from grace.cli.fit import train_module
 from grace.evaluation.metrics import step_auc
+from grace.evaluation.step_states import state_scores
 from grace.model.loss import grace_loss
 from grace.model.module import GraceModule
 from grace.model.module import step_auc as logged_step_auc
 from grace.model.scoring import make_scorer
-from grace.tasks.train import state_scores
-from grace.tasks.training import train_module
 
 
 def _epochs(path):
@@ -84,7 +84,7 @@ def test_lr_decay_watches_the_early_stopping_monitor(cfg_factory):
 
 def test_a_fit_without_validation_watches_the_training_loss(cfg_factory, samples, tmp_path):
     """No validation assemblies: early stopping and the best checkpoint watch train_loss (the
-    monitor wiring of grace/tasks/training.py); the best checkpoint is the lowest train_loss."""
+    monitor wiring of grace/cli/fit.py); the best checkpoint is the lowest train_loss."""
     cfg = cfg_factory(
         "trainer.max_epochs=3",
         "trainer.enable_progress_bar=false",

@@ -1,12 +1,12 @@
 """A fit killed at any point and rerun with the same config resumes from `last.ckpt` and ends
-with the weights of an uninterrupted fit (grace/model/resume.py, grace/tasks/training.py)."""
+with the weights of an uninterrupted fit (grace/model/resume.py, grace/cli/fit.py)."""
 
 import lightning.pytorch as pl
 import pytest
 import torch
 
+from grace.cli.fit import train_module
 from grace.errors import UserError
-from grace.tasks.training import train_module
 
 SETTINGS = (
     "trainer.max_epochs=4",

@@ -1,0 +1,39 @@
+"""`python -m grace task=gather task.roots=[multirun/table2]`: combine runs into the paper's tables.
+
+Reads every results.json under the given folders and writes gather.md and gather.json into the run
+folder (grace/evaluation/gather.py: Table 2, Table 3, variants as blocks of rows, seeds pooled).
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+
+from omegaconf import MISSING, DictConfig
+
+from grace.cli.runner import TaskSettings
+from grace.data.atomic import write_text_atomic
+from grace.evaluation.gather import collect, find_results, gather_markdown
+from grace.evaluation.results import to_json
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class GatherSettings(TaskSettings):
+    """Schema of `task=gather` (values in grace/conf/task/gather.yaml)."""
+
+    roots: list[str] = MISSING
+
+
+def run(cfg: DictConfig) -> None:
+    """Gather the runs under `cfg.task.roots` into gather.md and gather.json."""
+    paths = find_results(cfg.task.roots)
+    tables = collect(paths)
+    out_dir = Path(cfg.paths.output_dir)
+    write_text_atomic(out_dir / "gather.json", to_json(tables))
+    markdown = gather_markdown(tables)
+    write_text_atomic(out_dir / "gather.md", markdown)
+    print(markdown)
+    log.info("gathered %d runs into %s", len(paths), out_dir)
