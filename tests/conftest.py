@@ -22,9 +22,10 @@ name `grace_tests_conftest`, which the config's `_target_` uses (worker processe
 
 from __future__ import annotations
 
+import json
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -164,3 +165,67 @@ def samples(fake_simulator) -> list[LabelledAssembly]:
     feasible = [s for s in drawn if s.truth.feasible and s.size > 3][:5]
     infeasible = [s for s in drawn if not s.truth.feasible][:1]
     return [bracket_frame(), *feasible, *infeasible]
+
+
+def _size_entry(seq: float, step: float = 1.0, **fields: object) -> dict:
+    """A results.json entry of one test size: sequence and step AUC (std 0.01 and 0), eight
+    feasible test assemblies, and any other `fields`."""
+    return {
+        "folds": 4,
+        "assemblies": 8,
+        "forward_passes": 100,
+        "step_auc": {"mean": step, "std": 0.0},
+        "seq_auc": {"mean": seq, "std": 0.01},
+        "no_sequence": 0,
+        "feasibility": {"confusion": {"tp": 8, "fp": 0, "tn": 0, "fn": 0}},
+        **fields,
+    }
+
+
+@pytest.fixture
+def size_entry() -> Callable[..., dict]:
+    """`size_entry(seq, step=1.0, **fields)`: a results.json entry of one test size, sequence and
+    step AUC (std 0.01 and 0), eight feasible test assemblies, and any other `fields`."""
+    return _size_entry
+
+
+@pytest.fixture
+def results_run() -> Callable[..., Path]:
+    """`write(folder, protocol, train, test, entry, overrides=(), seed=0, baselines=None)`:
+    a run folder holding a results.json whose every test size has `entry` (a dict, or a
+    function of the size) and `.hydra/overrides.yaml`; baselines: name -> entry."""
+
+    def write(
+        folder: Path,
+        protocol: str,
+        train: list[int],
+        test: list[int],
+        entry: dict | Callable[[int], dict],
+        overrides: Sequence[str] = (),
+        seed: int = 0,
+        baselines: dict[str, dict] | None = None,
+    ) -> Path:
+        of = entry if callable(entry) else (lambda size: entry)
+        results = {
+            "protocol": protocol,
+            "train_sizes": train,
+            "test_sizes": test,
+            "folds": 4,
+            "per_size": {str(s): of(s) for s in test},
+            "baselines": {
+                name: {"per_size": {str(s): e for s in test}}
+                for name, e in (baselines or {}).items()
+            },
+            "seconds": 1.0,
+            "seconds_by_stage": {"load": 0.1, "train": [0.4], "evaluate": [0.5]},
+            "run": {"model": "grace_geometric", "seed": seed, "data_seed": 0,
+                    "overrides": list(overrides)},
+        }  # fmt: skip
+        (folder / ".hydra").mkdir(parents=True)
+        (folder / "results.json").write_text(json.dumps(results, indent=2))
+        (folder / ".hydra" / "overrides.yaml").write_text(
+            "".join(f"- {o}\n" for o in overrides) or "[]\n"
+        )
+        return folder
+
+    return write

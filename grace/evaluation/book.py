@@ -167,15 +167,15 @@ def results_book(paths: Sequence[Path], report_command: str) -> str:
             [runs[i] for i in chosen], [Path(paths[i]) for i in chosen]
         )
         run_lines = commands([made[i] for i in chosen])
-        if protocol == ONE_TO_MANY:
-            table = table3_markdown(gathered.table3)
-            parts += _block("One-to-many (paper Table 3)", run_lines, report_command, table)
-            by_name = gathered.table3
-        else:
-            table = protocol_table(gathered.table2, protocol)
-            parts += _block(TITLES.get(protocol, protocol), run_lines, report_command, table)
-            by_name = gathered.table2
+        by_name = gathered.table3 if protocol == ONE_TO_MANY else gathered.table2
         names = [n for n in by_name if n.split(" (")[0] not in baselines]
+        by_name = {n: by_name[n] for n in [*names, *(n for n in by_name if n not in names)]}
+        if protocol == ONE_TO_MANY:
+            table = table3_markdown({_policy_label(n): v for n, v in by_name.items()})
+            parts += _block("One-to-many (paper Table 3)", run_lines, report_command, table)
+        else:
+            table = protocol_table(by_name, protocol)
+            parts += _block(TITLES.get(protocol, protocol), run_lines, report_command, table)
         if len(names) > 1:
             title = f"Variants: {TITLES.get(protocol, 'One-to-many (paper Table 3)')}"
             parts += _block(title, run_lines, report_command, variant_table(by_name, names))

@@ -94,17 +94,13 @@ def pool(entries: list[Any]) -> Any:
         return first
     if any(e is None for e in entries):
         return None
-    if isinstance(first, Stat | CountedStat):
+    if isinstance(first, Stat):
         stat = mean_std([e.mean for e in entries])
-        if isinstance(first, Stat):
-            return Stat(mean=stat.mean, std=stat.std, runs=len(entries))
-        return CountedStat(
-            mean=stat.mean,
-            std=stat.std,
-            runs=len(entries),
-            assemblies=sum(e.assemblies for e in entries),
-            empty=sum(e.empty for e in entries),
-        )
+        pooled = Stat(mean=stat.mean, std=stat.std, runs=len(entries))
+        if not isinstance(first, CountedStat):
+            return pooled
+        counts = {k: sum(getattr(e, k) for e in entries) for k in ("assemblies", "empty")}
+        return CountedStat(**vars(pooled), **counts)
     if dataclasses.is_dataclass(first):
         return type(first)(
             **{
@@ -145,8 +141,7 @@ def gather_runs(runs: list[ExperimentResults], paths: list[Path]) -> Gathered:
     tables: dict[str, dict] = {"table2": {}, "table3": {}}
     seeds: dict[str, set] = {}
     for results, label in zip(runs, variants(runs), strict=True):
-        policies = results.policies()
-        policies[label] = policies.pop("GRACE")
+        policies = {label: results.per_size} | {n: b.per_size for n, b in results.baselines.items()}
         if results.protocol == ONE_TO_MANY:
             table, key = "table3", "+".join(str(s) for s in results.train_sizes)
         else:

@@ -48,16 +48,10 @@ class Stat:
 
 
 @dataclass
-class CountedStat:
+class CountedStat(Stat):
     """A P@k over folds with the assemblies it counted."""
 
     __pydantic_config__ = CONFIG
-    mean: float
-    """Mean over the folds that define the metric."""
-    std: float
-    """Population standard deviation (ddof = 0)."""
-    runs: Annotated[int | None, OMITTED_IF_NONE] = None
-    """Runs pooled into this entry (gathered results only)."""
     assemblies: int = 0
     """Test assemblies counted (at least k ground-truth orders), summed over folds."""
     empty: int = 0
@@ -215,7 +209,7 @@ class ExperimentResults:
     """The baselines and floors of task.baselines, on the same test assemblies."""
     seconds: float
     """Wall clock of the whole run."""
-    seconds_by_stage: Annotated[StageSeconds | None, OMITTED_IF_NONE] = None
+    seconds_by_stage: StageSeconds
     collapsed_folds: list[int] = field(default_factory=list)
     fold_health: list[FoldHealth] = field(default_factory=list)
     run: Annotated[RunInfo | None, OMITTED_IF_NONE] = None

@@ -7,7 +7,7 @@ from collections.abc import Callable, Hashable, Mapping, Sequence
 
 from grace.evaluation.results import CountedStat, SizeSummary, Stat
 
-Metric = Callable[[SizeSummary], Stat | CountedStat | None]
+Metric = Callable[[SizeSummary], Stat | None]
 """Where a metric sits in a size's entry (None: undefined)."""
 
 
@@ -81,11 +81,19 @@ def metrics_table(
     """A row per (block, metric of METRIC_ROWS), a column per (header, key into a block).
 
     Rows run block by block, or with `by_metric` metric by metric, every block's row of a metric
-    beside the others' (GRACE's figure next to its floors').
+    beside the others' (GRACE's figure next to its floors'), leaving out a metric that no block
+    defines in any column.
     """
     pairs = [(name, row) for name in blocks for row in METRIC_ROWS]
     if by_metric:
-        pairs = [(name, row) for row in METRIC_ROWS for name in blocks]
+        defined = [
+            row
+            for row in METRIC_ROWS
+            if any(
+                value(b.get(key), row[1]) is not None for b in blocks.values() for _, key in columns
+            )
+        ]
+        pairs = [(name, row) for row in defined for name in blocks]
     rows = [
         [name, label, *(cell(value(blocks[name].get(key), metric)) for _, key in columns)]
         for name, (label, metric) in pairs

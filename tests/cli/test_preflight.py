@@ -1,6 +1,6 @@
 """Bad input through the real entry point: one line naming what, where and the fix, exit code 2,
 nothing written, and no torch or Lightning loaded first (the checks run in about a second;
-grace/cli/preflight.py). One row per case of issue 13."""
+grace/cli/preflight.py). One row per kind of bad input."""
 
 import re
 import subprocess

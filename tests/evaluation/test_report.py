@@ -9,6 +9,7 @@ from grace.evaluation.results import (
     FoldHealth,
     PolicyResults,
     SizeHealth,
+    StageSeconds,
     Stat,
     plain,
     read_results,
@@ -87,6 +88,7 @@ def _results(per_size, **extra):
         per_size=per_size,
         baselines={"random": PolicyResults(per_size)},
         seconds=1.5,
+        seconds_by_stage=StageSeconds(load=0.5, train=[0.5], evaluate=[0.5]),
         **extra,
     )
 
