@@ -230,13 +230,19 @@ def task_schemas(conf_dir: Path = CONF_DIR) -> dict[str, type]:
     out = {}
     for path in sorted((conf_dir / "task").glob("*.yaml")):
         module = importlib.import_module(OmegaConf.load(path).run._target_.rpartition(".")[0])
-        (settings,) = (
+        found = [
             kind
             for kind in vars(module).values()
             if isinstance(kind, type)
             and issubclass(kind, TaskSettings)
             and kind.__module__ == module.__name__
-        )
+        ]
+        if len(found) != 1:
+            raise TypeError(
+                f"{module.__name__} (run target of {path}) defines {len(found)} TaskSettings "
+                "subclasses; a task module defines exactly one, its schema"
+            )
+        (settings,) = found
         out[f"task/{path.stem}"] = settings
     return out
 
