@@ -88,7 +88,8 @@ def main() -> None:
     if sim.cell.n_arms:
         report["reach_coverage_400mm"] = reach_coverage(sim.cell)
         far = Part("far", PartType.PROFILE_200, planar_pose(1500.0, 0.0))
-        report["reachable_at_1500mm"] = _reachable(sim.cell, far, sim.motion.approach_height)
+        height = sim.carry_heights(Assembly((far,)))[0]
+        report["reachable_at_1500mm"] = _reachable(sim.cell, far, height)
     print(json.dumps(report, indent=2))
 
 

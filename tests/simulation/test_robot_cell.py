@@ -12,10 +12,11 @@ from grace.domain.motion import Motion
 from grace.errors import UserError
 from grace.simulation.robot_cell import RobotCell, category
 
-DROP = Motion("top_down", np.array([[0.0, 0.0, 60.0], [0.0, 0.0, 0.0]]))
+DROP = Motion("top_down", np.array([[0.0, 0.0, 160.0], [0.0, 0.0, 0.0]]))
+"""Lowered from above every clamp (a part carried in lower sweeps through what stands taller)."""
 
 
-def slide(dx: float, dy: float, length: float = 60.0, height: float = 60.0) -> Motion:
+def slide(dx: float, dy: float, length: float = 60.0, height: float = 160.0) -> Motion:
     """Lowered `length` back from the joint, then slid along (dx, dy) into it."""
     back = [-dx * length, -dy * length]
     return Motion("slide", np.array([[*back, height], [*back, 0.0], [0, 0, 0]]), (dx, dy))
@@ -79,21 +80,33 @@ def test_a_part_out_of_reach_has_no_reachable_option(cell):
 
 
 def test_every_profile_gets_a_clamp_on_a_free_spot(cell, cfg):
+    """A toggle clamp where it leaves a finger's room, a swing clamp in a tight spot; every
+    base touches its profile and stands on no part, the closed bar or arm lies on its top."""
     p = PartType.PROFILE_300
+    # Rails 44 mm apart: a 40 mm clamp between them leaves no finger's room on either side.
     frame = build((p, 0.0, 0.0, 1), (PartType.PROFILE_200, -60.0, 120.0, 0))
-    scene = cell.scene(frame)
-    clamp = cfg["clamp"]
-    for boxes in scene.clamps:
-        assert boxes.shape == (2, 2, 3)
-        body, arm = boxes
-        # The arm lies on the profile's top; the post carries it, up to the arm's top.
-        assert arm[0, 2] == 40 and body[1, 2] == arm[1, 2] == 40 + clamp["arm_thickness"]
-        # Touches its profile, overlaps no part.
-        for other in frame.parts:
-            for x0, y0, x1, y1 in other.footprint_boxes():
-                dx = min(body[1, 0], x1) - max(body[0, 0], x0)
-                dy = min(body[1, 1], y1) - max(body[0, 1], y0)
-                assert not (dx > 0.5 and dy > 0.5)
+    tight = build((p, 0.0, 0.0, 1), (p, 0.0, 84.0, 1), (p, 0.0, -84.0, 1))
+    finger = cfg["gripper"]["finger_thickness"]
+    types = {t["name"]: t for t in cfg["clamp"]["types"]}
+    kinds = {c.kind for c in cell.scene(frame).clamps}
+    assert kinds == {"toggle"}
+    assert cell.scene(tight).clamps[0].kind == "swing"
+    for assembly in (frame, tight):
+        for part, clamp in zip(assembly.parts, cell.scene(assembly).clamps, strict=True):
+            spec = types[clamp.kind]
+            assert len(clamp.boxes) == len(spec["boxes"])
+            base, bar = clamp.boxes[0], clamp.boxes[1]
+            assert base[0, 2] == 0 and base[1, 2] == bar[1, 2] == 55 and bar[0, 2] == 40
+            x0, y0, x1, y1 = part.footprint_boxes()[0]
+            gap = max(base[0, 0] - x1, x0 - base[1, 0], base[0, 1] - y1, y0 - base[1, 1])
+            assert abs(gap) < 0.5  # against its profile's side
+            for other in assembly.parts:
+                for ox0, oy0, ox1, oy1 in other.footprint_boxes():
+                    dx = min(base[1, 0], ox1) - max(base[0, 0], ox0)
+                    dy = min(base[1, 1], oy1) - max(base[0, 1], oy0)
+                    assert not (dx > 0.5 and dy > 0.5)
+                    if clamp.kind == "toggle" and other is not part:
+                        assert min(dx, dy) < 0.5 - finger  # a finger's room all round
 
 
 def _frame() -> tuple[Assembly, list[list[Motion]]]:
