@@ -14,6 +14,8 @@ from grace.simulation.robot_cell import RobotCell, category
 
 DROP = Motion("top_down", np.array([[0.0, 0.0, 160.0], [0.0, 0.0, 0.0]]))
 """Lowered from above every clamp (a part carried in lower sweeps through what stands taller)."""
+LOW = Motion("top_down", np.array([[0.0, 0.0, 75.0], [0.0, 0.0, 0.0]]))
+"""Carried in above the clamps' bases, below a closed toggle clamp's handle."""
 
 
 def slide(dx: float, dy: float, length: float = 60.0, height: float = 160.0) -> Motion:
@@ -109,6 +111,22 @@ def test_every_profile_gets_a_clamp_on_a_free_spot(cell, cfg):
                         assert min(dx, dy) < 0.5 - finger  # a finger's room all round
 
 
+def test_a_part_is_carried_in_above_what_stands_then(cell):
+    """Rails 300 mm apart, each with a toggle clamp: carried in at 75 mm, rail 0 sweeps through
+    rail 1's handle once rail 1 is clamped; lowered from 160 mm it clears it."""
+    p = PartType.PROFILE_200
+    rails = build((p, 0.0, 0.0, 0), (p, 300.0, 0.0, 0))
+    assert [c.kind for c in cell.scene(rails).clamps] == ["toggle", "toggle"]
+    options = cell.placement_options(rails, 0, [LOW, DROP])
+    low = [o for o in options if o.motion == 0]
+    assert all(o.masks[category("held_part", "clamp")] == 0b10 for o in low)
+    assert any(o.free(0) for o in low) and not any(o.free(0b10) for o in low)
+    assert any(o.free(0b10) for o in options if o.motion == 1)
+    assert cell.check_placement(rails, 0, 0, LOW)
+    assert not cell.check_placement(rails, 0, 0b10, LOW)
+    assert cell.check_placement(rails, 0, 0b10, DROP)
+
+
 def _frame() -> tuple[Assembly, list[list[Motion]]]:
     """A bar, two stems 8 mm apart, a bracket in an inner corner, a profile across a corridor."""
     p2, p3, b = PartType.PROFILE_200, PartType.PROFILE_300, PartType.BRACKET
@@ -123,10 +141,18 @@ def _frame() -> tuple[Assembly, list[list[Motion]]]:
     return assembly, [[DROP], [into_bar], [into_bar, DROP], [DROP], [DROP]]
 
 
-def test_blockers_agree_with_the_uncached_mujoco_check(cell):
+@pytest.mark.parametrize("variant", ["default", "open_bar"])
+def test_blockers_agree_with_the_uncached_mujoco_check(cell, world, variant):
+    """Every option's masks against the uncached check in every state; with the toggle clamps'
+    bar standing up while open, some options wait for a clamp to close."""
+    if variant == "open_bar":
+        cell = RobotCell(**world.config("dual_arm", "simulator/cell=iiwa14_dual_open_bar")["cell"])
     assembly, motions = _frame()
     n = assembly.n_parts
     scene = cell.scene(assembly)
+    if variant == "open_bar":  # an open bar in a neighbour's way, and in its own profile's
+        needs = [(p, o.needs) for p in range(n) for o in cell.part_options(scene, p, motions[p])]
+        assert any(m & ~(1 << p) for p, m in needs) and any(m >> p & 1 for p, m in needs)
     for part in range(n):
         options = cell.part_options(scene, part, motions[part])
         others = [i for i in range(n) if i != part]
