@@ -13,6 +13,10 @@ blocker masks say which other parts stop it, one mask per (robot body, obstacle 
   its open clamp holds out until it is placed (`open`), so a hit makes an option usable only
   once that part is placed, never for its own profile (`clamps.clamp_boxes`).
 
+A part is carried in at the height a motion starts from and lowered there: whatever stands
+taller then (a closed toggle clamp's handle) would be in the way of the held part and the
+fingers on the way in, wherever it stands (`Scene.carried_over`), so it joins their masks.
+
 The fingers, palm and held part are world-aligned boxes moving along world axes, so the volume
 each sweeps along a motion segment is exactly the box spanning its start and end copies; their
 contacts are box overlaps. The arm links are capsules in arbitrary poses: a box test on their
@@ -21,8 +25,10 @@ decides those. `options` puts every part of the assembly into the scene at once 
 each contact to its owner, so one query per option gives the blockers for every state: the
 option is free in state S iff it hits no post, `blockers & S == 0` for the part and clamp
 masks, and `needs & ~S == 0` for the open ones.
-`check_placement` is the uncached reference: only the parts of one state (and every post) in
-MuJoCo, tool and arm sampled every few millimetres.
+Motions share segments (the same path making other joints; the lower stretch of a descent
+from a greater carry height), so tool sweeps and arm samples are worked out once per segment.
+`check_placement` is the uncached reference: only the parts and clamp solids standing in one
+state in MuJoCo, tool and arm sampled every few millimetres.
 """
 
 from __future__ import annotations
@@ -101,7 +107,7 @@ class PlacementOption:
 
     @property
     def posts(self) -> int:
-        """Bitmask of the profiles whose clamp post any robot body would hit."""
+        """Bitmask of the profiles whose clamp base any robot body would hit."""
         out = 0
         for body in BODIES:
             out |= self.masks[category(body, "post")]
