@@ -177,6 +177,15 @@ def test_bad_config_names_the_field(cfg):
         RobotCell(**{**cfg, "gripper": {**cfg["gripper"], "finger_size": 3}})
     with pytest.raises(UserError, match=r"palm_width"):
         RobotCell(**{**cfg, "gripper": {**cfg["gripper"], "palm_width": 50}})
+    toggle, swing = cfg["clamp"]["types"]
+    for broken_type, why in (
+        ({**toggle, "boxes": [{**toggle["boxes"][0], "when": "later"}]}, "when: always"),
+        ({**toggle, "boxes": [*toggle["boxes"], {**toggle["boxes"][1], "when": "later"}]}, "later"),
+        ({**toggle, "boxes": [{**toggle["boxes"][0], "z": [55, 0]}]}, "from < to"),
+    ):
+        clamp = {**cfg["clamp"], "types": [broken_type, swing]}
+        with pytest.raises(UserError, match=rf"clamp.types.*toggle.*{why}"):
+            RobotCell(**{**cfg, "clamp": clamp})
 
 
 def test_too_many_parts_for_the_slot_pool(cfg):
