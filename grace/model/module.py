@@ -98,8 +98,12 @@ class GraceModule(pl.LightningModule):
         return loss
 
     def _step(self, batch: StateBatch, stage: str) -> torch.Tensor:
-        logits = self(batch)
-        loss = self.loss(batch, logits)
+        # Regions of the trainer's profiler (a no-op unless one is set: grace/model/profiling.py).
+        profile = self.trainer.profiler.profile
+        with profile(f"[GraceModule]{stage}_forward"):
+            logits = self(batch)
+        with profile(f"[GraceModule]{stage}_loss"):
+            loss = self.loss(batch, logits)
         self.log(f"{stage}_loss", loss, on_epoch=True, on_step=False, batch_size=batch.n_states)
         scores = self.net.scores(logits.detach())[batch.mask]
         self._outputs[stage].append((scores, batch.labels[batch.mask]))

@@ -16,6 +16,10 @@ Side by side in one run, same weights, `cfg.threads` threads:
   sequence AUC, P@k, both step AUCs, the feasibility schemes, the first false steps), for GRACE
   on the fast path (untrained weights) and every baseline of grace.evaluation.baselines.
 Writes `bench.json` into the run's output folder and returns the fast/PyG training speed-up.
+
+`task.profile=true` instead trains `task.profile_epochs` epochs of the experiment's first fold
+on the configured data and model and writes where their time goes (grace/model/profiling.py)
+to `profile.json`.
 """
 
 from __future__ import annotations
@@ -29,7 +33,8 @@ from pathlib import Path
 import numpy as np
 import torch
 from hydra.utils import instantiate
-from omegaconf import MISSING, DictConfig
+from lightning.pytorch import seed_everything
+from omegaconf import MISSING, DictConfig, OmegaConf
 
 from grace.data.atomic import write_text_atomic
 from grace.domain.sample import LabelledAssembly
@@ -42,7 +47,9 @@ from grace.model.module import GraceModule
 from grace.model.scoring import make_scorer
 from grace.planning.bench import planner_benchmark
 from grace.planning.sequences import Scorer
+from grace.tasks.experiment import _folds as experiment_folds
 from grace.tasks.runner import TaskSettings
+from grace.tasks.training import train_module
 
 log = logging.getLogger(__name__)
 
@@ -60,6 +67,8 @@ class BenchSettings(TaskSettings):
     train_steps: int = MISSING
     infer_calls: int = MISSING
     prefix_passes: int = MISSING
+    profile: bool = MISSING
+    profile_epochs: int = MISSING
 
 
 def bench_assemblies(
@@ -138,7 +147,33 @@ def evaluate_ms_per_assembly(scorer: Scorer, samples: list[LabelledAssembly]) ->
     return 1000.0 * (time.perf_counter() - start) / len(samples)
 
 
+def profile_epochs(cfg: DictConfig) -> float:
+    """`task.profile=true`: the stages of the first fold's training epochs (StageProfiler),
+    written to profile.json; returns the mean epoch's CPU seconds."""
+    data = instantiate(cfg.dataset).load()
+    fold = experiment_folds(cfg, [sample.size for sample in data])[2][0]
+    cfg = OmegaConf.merge(cfg, {"trainer": {"max_epochs": cfg.task.profile_epochs}})
+    cfg.trainer.profiler = {"_target_": "grace.model.profiling.StageProfiler"}
+    torch.set_num_threads(int(cfg.threads))
+    seed_everything(int(cfg.seed), verbose=False)
+    out_dir = Path(cfg.paths.output_dir)
+    train, val = [data[i] for i in fold.train], [data[i] for i in fold.val]
+    profiler = train_module(cfg, train, val, out_dir / "profile").trainer.profiler
+    result = {
+        "epochs": profiler.epochs,
+        "threads": torch.get_num_threads(),
+        "assemblies": {"train": len(train), "val": len(val)},
+        "cpu_s_per_epoch": profiler.stages("cpu"),
+        "wall_s_per_epoch": profiler.stages("wall"),
+    }
+    write_text_atomic(out_dir / "profile.json", json.dumps(result, indent=2) + "\n")
+    print(profiler.summary())
+    return sum(result["cpu_s_per_epoch"].values())
+
+
 def run(cfg: DictConfig) -> float:
+    if cfg.task.profile:
+        return profile_epochs(cfg)
     out_dir = Path(cfg.paths.output_dir)
     rng = np.random.default_rng(int(cfg.seed))
     train_size, infer_size = int(cfg.task.train_size), int(cfg.task.infer_size)
