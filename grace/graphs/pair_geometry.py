@@ -26,7 +26,8 @@ PAIR_GEOMETRY_FEATURES = 16
 n's axes (2), m's turn relative to n (4, one-hot) and both part types (3 + 3, one-hot)."""
 
 
-_TYPE_INDEX = {t: i for i, t in enumerate(PartType)}
+PART_TYPE_INDEX = {t: t.index for t in PartType}
+"""PartType.index of every type, looked up without building the list of types each time."""
 
 
 def _codes() -> np.ndarray:
@@ -74,7 +75,7 @@ def pair_geometry(assembly: Assembly, scale: float) -> np.ndarray:
     own = box[diagonal, diagonal][:, None]  # (N_from, 1, 4): each part in its own frame
     gaps = np.maximum(box[..., :2] - own[..., 2:], own[..., :2] - box[..., 2:])
     turns = np.array([p.quarter_turns for p in parts])
-    types = np.array([_TYPE_INDEX[p.type] for p in parts])
+    types = np.array([PART_TYPE_INDEX[p.type] for p in parts])
     codes = _CODES[(turns[:, None] - turns[None, :]) % 4, types[:, None], types[None, :]]
     out = np.concatenate(
         [np.concatenate([box, gaps], axis=-1).transpose(1, 0, 2) / scale, codes], axis=-1
