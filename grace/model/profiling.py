@@ -71,10 +71,10 @@ class StageProfiler(Profiler):
         self.cpu[action_name] += time.thread_time() - started[1]
         self.epochs += action_name == EPOCH
 
-    def stages(self, clock: str = "cpu") -> dict[str, float]:
-        """Seconds per epoch of each of STAGES, by `clock` ("cpu" or "wall"); they add up to the
-        mean epoch (validation included)."""
-        t = self.cpu if clock == "cpu" else self.wall
+    def stages(self, wall: bool = False) -> dict[str, float]:
+        """Seconds per epoch of each of STAGES, by the main thread's CPU clock (by the wall clock
+        if `wall`); they add up to the mean epoch (validation included)."""
+        t = self.wall if wall else self.cpu
         step, backward = t[_STEP], t[_BACKWARD]
         out = {
             "batch assembly": t[_BATCH],
@@ -91,7 +91,7 @@ class StageProfiler(Profiler):
         return {k: v / max(self.epochs, 1) for k, v in out.items()}
 
     def summary(self) -> str:
-        cpu, wall = self.stages("cpu"), self.stages("wall")
+        cpu, wall = self.stages(), self.stages(wall=True)
         lines = [f"{'stage':<20} {'CPU s/epoch':>12} {'wall s/epoch':>13}"]
         lines += [f"{k:<20} {cpu[k]:>12.3f} {wall[k]:>13.3f}" for k in STAGES]
         lines.append(f"{'epoch':<20} {sum(cpu.values()):>12.3f} {sum(wall.values()):>13.3f}")

@@ -1,8 +1,8 @@
 import pytest
 from omegaconf import open_dict
 
+from grace.cli.fit import train_module
 from grace.model.profiling import FORWARD, LOSS, STAGES, StageProfiler
-from grace.tasks.training import train_module
 
 
 def test_stages_add_up_to_the_profiled_epochs(cfg_factory, samples, tmp_path):
@@ -16,10 +16,10 @@ def test_stages_add_up_to_the_profiled_epochs(cfg_factory, samples, tmp_path):
         cfg.trainer.profiler = {"_target_": "grace.model.profiling.StageProfiler"}
     profiler = train_module(cfg, samples, samples, tmp_path / "run").trainer.profiler
     assert isinstance(profiler, StageProfiler) and profiler.epochs == 2
-    for clock in ("cpu", "wall"):
-        stages = profiler.stages(clock)
+    for wall, times in ((False, profiler.cpu), (True, profiler.wall)):
+        stages = profiler.stages(wall)
         assert tuple(stages) == STAGES
-        total = (profiler.cpu if clock == "cpu" else profiler.wall)["run_training_epoch"]
+        total = times["run_training_epoch"]
         assert sum(stages.values()) == pytest.approx(total / 2, rel=1e-9)
         for stage in ("batch assembly", "forward", "loss", "backward", "optimiser", "validation"):
             assert stages[stage] > 0, stage
