@@ -23,7 +23,7 @@ from torch_geometric.data import HeteroData
 
 from grace.domain.assembly import Assembly, Surface
 from grace.graphs.encoding import GraphEncoding, node_ids
-from grace.graphs.pair_geometry import pair_geometry
+from grace.graphs.pair_geometry import PART_TYPE_INDEX, pair_geometry
 
 SURFACE_EDGE = ("surface", "near", "surface")
 PART_EDGE = ("surface", "of", "part")
@@ -76,7 +76,7 @@ def encode_assembly(
     part_ids, surface_ids = node_ids(
         surface_part, surface_index, assembly.n_parts, enc, training, rng
     )
-    part_type = np.array([[p.type.index] for p in assembly.parts], dtype=np.float64)
+    part_type = np.array([[PART_TYPE_INDEX[p.type]] for p in assembly.parts], dtype=np.float64)
     surface_type = np.array([[int(s.type)] for s in surfaces], dtype=np.float64)
     relation = scaled_relations(assembly, enc.distance_scale, surfaces)
     part_static = np.hstack([part_type, enc.encode(part_ids, rng, enc.part_pe)])

@@ -15,6 +15,8 @@ generated and raw assemblies carry every part's pose (`assembly.spec`), so both 
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from grace.domain.assembly import Assembly, Part, PartType
@@ -24,35 +26,59 @@ PAIR_GEOMETRY_FEATURES = 16
 n's axes (2), m's turn relative to n (4, one-hot) and both part types (3 + 3, one-hot)."""
 
 
-def _local_box(part: Part, frame: np.ndarray) -> np.ndarray:
-    """(xmin, ymin, xmax, ymax) of `part`'s footprint in the frame whose world pose is `frame`."""
-    corners = []
-    for x0, y0, x1, y1 in part.footprint_boxes():
-        corners += [(x0, y0), (x1, y1), (x0, y1), (x1, y0)]
-    world = np.asarray(corners) - frame[:2, 3]
-    local = world @ frame[:2, :2]  # R^T (p − t), row-wise
-    return np.concatenate([local.min(axis=0), local.max(axis=0)])
+PART_TYPE_INDEX = {t: t.index for t in PartType}
+"""PartType.index of every type, looked up without building the list of types each time."""
+
+
+def _codes() -> np.ndarray:
+    """(4, T, T, 10): the one-hot features of a pair by (m's quarter turn relative to n, m's type,
+    n's type)."""
+    types = len(PartType)
+    codes = np.zeros((4, types, types, 4 + 2 * types))
+    for turn in range(4):
+        for m in range(types):
+            for n in range(types):
+                codes[turn, m, n, [turn, 4 + m, 4 + types + n]] = 1.0
+    return codes
+
+
+_CODES = _codes()
+
+
+@functools.cache
+def _local_corners(part_type: PartType) -> np.ndarray:
+    """(8, 2): the corners of the footprint boxes of a part of this type in its own frame
+    (Part.footprint_boxes at the identity pose); a one-box type repeats its box, which leaves
+    every min and max as it is."""
+    boxes = Part("", part_type, np.eye(4)).footprint_boxes()
+    corners = [((x0, y0), (x1, y1), (x0, y1), (x1, y0)) for x0, y0, x1, y1 in boxes]
+    return np.asarray(corners * (2 // len(boxes)), dtype=np.float64).reshape(8, 2)
 
 
 def pair_geometry(assembly: Assembly, scale: float) -> np.ndarray:
     """(N, N, PAIR_GEOMETRY_FEATURES) float array, `[m, n]` = part m seen from part n; lengths
-    divided by `scale` mm; the diagonal is 0."""
+    divided by `scale` mm; the diagonal is 0.
+
+    All pairs at once, in a few array operations (the encoding is on the path of a cold
+    next-step query). Poses turn by quarter turns, so a box's turned corners are the corners of
+    the turned box."""
     parts = assembly.parts
     n = len(parts)
-    types = list(PartType)
-    out = np.zeros((n, n, PAIR_GEOMETRY_FEATURES))
-    own = [_local_box(p, p.pose) for p in parts]
-    for j, seen_from in enumerate(parts):
-        for i, part in enumerate(parts):
-            if i == j:
-                continue
-            box = _local_box(part, seen_from.pose)
-            mine = own[j]
-            gaps = np.maximum(box[:2] - mine[2:], mine[:2] - box[2:])
-            turn = (part.quarter_turns - seen_from.quarter_turns) % 4
-            out[i, j, :4] = box / scale
-            out[i, j, 4:6] = gaps / scale
-            out[i, j, 6 + turn] = 1.0
-            out[i, j, 10 + types.index(part.type)] = 1.0
-            out[i, j, 13 + types.index(seen_from.type)] = 1.0
+    poses = np.stack([p.pose for p in parts])
+    rot, shift = poses[:, :2, :2], poses[:, None, :2, 3]  # (N, 2, 2), (N, 1, 2)
+    local = np.stack([_local_corners(p.type) for p in parts])
+    world = local @ rot.transpose(0, 2, 1) + shift  # (N, 8, 2)
+    # seen[k, m] = R_kᵀ (corners_m − t_k): every part's corners in every part's frame.
+    seen = np.einsum("kmcd,kde->kmce", world[None] - shift[:, None], rot)
+    box = np.concatenate([seen.min(axis=2), seen.max(axis=2)], axis=-1)  # (N_from, N, 4)
+    diagonal = np.arange(n)
+    own = box[diagonal, diagonal][:, None]  # (N_from, 1, 4): each part in its own frame
+    gaps = np.maximum(box[..., :2] - own[..., 2:], own[..., :2] - box[..., 2:])
+    turns = np.array([p.quarter_turns for p in parts])
+    types = np.array([PART_TYPE_INDEX[p.type] for p in parts])
+    codes = _CODES[(turns[:, None] - turns[None, :]) % 4, types[:, None], types[None, :]]
+    out = np.concatenate(
+        [np.concatenate([box, gaps], axis=-1).transpose(1, 0, 2) / scale, codes], axis=-1
+    )
+    out[diagonal, diagonal] = 0.0
     return out

@@ -31,23 +31,47 @@ _EPS = 1e-5  # torch_geometric InstanceNorm default
 _MASKED = -1e30
 
 
-def _norm_weights(mask: torch.Tensor, dtype: torch.dtype) -> tuple[torch.Tensor, torch.Tensor]:
-    """(mask, mask / count) as (..., rows, 1) floats: the masked mean is then one weighted sum."""
+NormWeights = tuple[torch.Tensor, torch.Tensor] | None
+"""(mask, mask / count) as (..., rows, 1) floats, or None where every row is real."""
+
+
+def _norm_weights(mask: torch.Tensor, dtype: torch.dtype) -> NormWeights:
+    """(mask, mask / count) as (..., rows, 1) floats: the masked mean is then one weighted sum.
+    None for a mask of one assembly, which has no padding (DenseAssemblies.stack pads to the
+    largest assembly)."""
+    if mask.shape[0] == 1:
+        return None
     m = mask.unsqueeze(-1).to(dtype)
     return m, m / m.sum(dim=-2, keepdim=True).clamp(min=1)
 
 
-def _masked_instance_norm(
-    x: torch.Tensor, weights: tuple[torch.Tensor, torch.Tensor], norm: torch.nn.Module
-) -> torch.Tensor:
+def _instance_norm(x: torch.Tensor, weights: NormWeights, norm: torch.nn.Module) -> torch.Tensor:
     """InstanceNorm over dim −2 counting only masked rows (biased variance, as PyG).
 
-    `weights` comes from :func:`_norm_weights`, computed once and shared by all blocks.
+    `weights` comes from :func:`_norm_weights`, computed once and shared by all blocks; without
+    padding, a group norm of the transpose does it in one kernel (torch's instance_norm takes
+    twice as long on these small tensors). The GAT biases that precede every such norm are
+    constant over the rows it centres, so they cancel and are left out.
     """
+    if weights is None:  # one group per channel: an instance norm over the rows, one kernel
+        channels = x.transpose(-1, -2)
+        return F.group_norm(channels, x.shape[-1], norm.weight, norm.bias, _EPS).transpose(-1, -2)
     m, w = weights
     centred = (x - (x * w).sum(dim=-2, keepdim=True)) * m
     var = (centred.square() * w).sum(dim=-2, keepdim=True)
     return torch.addcmul(norm.bias, centred * torch.rsqrt(var + _EPS), norm.weight)
+
+
+def _linear(layer: torch.nn.Linear, x: torch.Tensor) -> torch.Tensor:
+    """`layer(x)` without the module call's hooks: a few microseconds per layer, which is a
+    tenth of a warm next-step query."""
+    return F.linear(x, layer.weight, layer.bias)
+
+
+def _by_state(x: torch.Tensor, state_assembly: torch.Tensor) -> torch.Tensor:
+    """Per-assembly `x` (A, ...) as one row per state: gathered, or with a single assembly left
+    to broadcast (no copy)."""
+    return x if x.shape[0] == 1 else x[state_assembly]
 
 
 def run_surface_blocks(
@@ -56,22 +80,25 @@ def run_surface_blocks(
     """Surface features (A, S, hidden) after surface blocks `blocks` from input `x`.
 
     Written with as few tensor operations as possible: on CPU a small assembly's cost is the
-    per-operation overhead, not the arithmetic (one A7 state in ≤ 1 ms: task=bench).
+    per-operation overhead, not the arithmetic (a cold next step of one new A7 assembly within a
+    millisecond); a single assembly has no padding to mask.
     """
     weights = _norm_weights(dense.surface_mask, x.dtype)
     # Additive attention mask over source surfaces: padding sources get exp(−huge) = 0.
-    padding = (~dense.surface_mask).to(x.dtype).unsqueeze(1) * _MASKED  # (A, 1, S_src)
+    padding = 0.0
+    if weights is not None:
+        padding = (~dense.surface_mask).to(x.dtype).unsqueeze(1) * _MASKED  # (A, 1, S_src)
     rel = dense.relation.unsqueeze(-1)  # (A, S_dst, S_src, 1)
     for i in blocks:
         gat = net.surface_gat(i)
-        xl, xr = gat.lin_l(x), gat.lin_r(x)
+        xl, xr = _linear(gat.lin_l, x), _linear(gat.lin_r, x)
         # The (A, S, S, hidden) pair tensor is the bulk of the work: built once, then updated
         # in place (autograd allows it: neither add nor addcmul needs its output to go back).
         z = (xr.unsqueeze(2) + xl.unsqueeze(1)).addcmul_(rel, gat.lin_edge.weight[:, 0])
         score = F.leaky_relu_(z, gat.negative_slope) @ gat.att[0, 0] + padding
-        out = torch.softmax(score, dim=-1) @ xl + gat.bias
-        x = torch.tanh(_masked_instance_norm(out, weights, net.surface_norms[i]))
-    return x * weights[0]
+        out = torch.softmax(score, dim=-1) @ xl  # + gat.bias: cancelled by the norm
+        x = torch.tanh(_instance_norm(out, weights, net.surface_norms[i]))
+    return x if weights is None else x * weights[0]
 
 
 def surface_embedding(net: GraceNet, dense: DenseAssemblies) -> torch.Tensor:
@@ -80,24 +107,17 @@ def surface_embedding(net: GraceNet, dense: DenseAssemblies) -> torch.Tensor:
     return run_surface_blocks(net, dense, dense.surface_x, range(net.cfg.first_state_block))
 
 
-def _ownership(dense: DenseAssemblies, dtype: torch.dtype) -> torch.Tensor:
-    """(A, N, S) 1 where surface s belongs to part n, 0 elsewhere and on padding."""
-    n = dense.part_mask.shape[1]
-    own = dense.surface_part.unsqueeze(1) == torch.arange(n).view(1, n, 1)
-    return (own & dense.surface_mask.unsqueeze(1)).to(dtype)
-
-
 def _part_inputs(
     net: GraceNet, dense: DenseAssemblies, surfaces: torch.Tensor
 ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     """The part conv's flag-free terms: lin_l of the surfaces (A, S, H), lin_r of each
     surface's part without its flag (A, S, H), and surface ownership (A, N, S)."""
     gat = net.part_gat
-    xl = gat.lin_l(surfaces)
+    xl = _linear(gat.lin_l, surfaces)
     w = gat.lin_r.weight
     xr_static = F.linear(dense.part_static, w[:, 1:], gat.lin_r.bias)  # (A, N, H)
     idx = dense.surface_part.unsqueeze(-1).expand(-1, -1, xr_static.shape[-1])
-    return xl, torch.gather(xr_static, 1, idx), _ownership(dense, xl.dtype)
+    return xl, torch.gather(xr_static, 1, idx), dense.ownership
 
 
 def _part_outputs(
@@ -108,19 +128,20 @@ def _part_outputs(
     score = F.leaky_relu_(z, gat.negative_slope) @ gat.att[0, 0]  # (..., A, S)
     # A part attends to its own surfaces only: the others get exp(−huge) = 0.
     score = score.unsqueeze(-2) + (1.0 - own) * _MASKED  # (..., A, N, S)
-    return (torch.softmax(score, dim=-1) * own) @ xl + gat.bias
+    return (torch.softmax(score, dim=-1) * own) @ xl  # + gat.bias: cancelled by the part norm
 
 
 def part_block_pair(
     net: GraceNet, dense: DenseAssemblies, surfaces: torch.Tensor
 ) -> tuple[torch.Tensor, torch.Tensor]:
-    """Part-conv outputs (A, N, hidden) for every part unplaced (flag 0) and placed (flag 1)."""
+    """Part-conv outputs (A, N, hidden) of every part unplaced (flag 0), and what placing it
+    adds (the flag-1 output minus the flag-0 one)."""
     xl, xr_of_surface, own = _part_inputs(net, dense, surfaces)
     w0 = net.part_gat.lin_r.weight[:, 0]
     # Both flag values at once, along a leading dimension of 2: flag 0 adds nothing.
     flag_w = torch.stack([torch.zeros_like(w0), w0]).view(2, 1, 1, -1)
     out = _part_outputs(net, (xl + xr_of_surface).unsqueeze(0) + flag_w, xl, own)
-    return out[0], out[1]
+    return out[0], out[1] - out[0]
 
 
 def part_block_states(
@@ -136,9 +157,9 @@ def part_block_states(
 
 
 def part_norm(net: GraceNet, h: torch.Tensor, part_mask: torch.Tensor) -> torch.Tensor:
-    """The part block's InstanceNorm over each state's real parts, then tanh."""
-    weights = _norm_weights(part_mask, h.dtype)
-    return torch.tanh(_masked_instance_norm(h, weights, net.part_norm))
+    """The part block's InstanceNorm over each state's real parts, then tanh; `part_mask` has
+    one row per state, or a single row (one assembly, no padding)."""
+    return torch.tanh(_instance_norm(h, _norm_weights(part_mask, h.dtype), net.part_norm))
 
 
 def state_part_features(
@@ -148,13 +169,14 @@ def state_part_features(
     state_assembly: torch.Tensor,
     flags: torch.Tensor,
 ) -> torch.Tensor:
-    """Part features after the part block for T states, (T, N, hidden).
+    """Part features after the part block for T states, (T, N, hidden), from
+    :func:`part_block_pair`'s `pair`.
 
     `state_assembly` (T,) indexes the assembly of each state, `flags` (T, N) its assembled flags.
     """
-    out0, out1 = pair[0][state_assembly], pair[1][state_assembly]
-    h = torch.addcmul(out0, flags.unsqueeze(-1), out1 - out0)
-    return part_norm(net, h, part_mask[state_assembly])
+    unplaced, placing = (_by_state(x, state_assembly) for x in pair)
+    h = torch.addcmul(unplaced, flags.unsqueeze(-1), placing)
+    return part_norm(net, h, _by_state(part_mask, state_assembly))
 
 
 @dataclass
@@ -206,10 +228,10 @@ def first_state_block(
     padding = (~rows.surface_mask).to(owner_flag.dtype).unsqueeze(1) * _MASKED
     attention = torch.softmax(torch.take(shared.logits, index) + padding, dim=-1)  # (T, S, S)
     out = attention @ shared.values[state_assembly]
-    out = out + (attention @ owner_flag.unsqueeze(-1)) * gat.lin_l.weight[:, 0] + gat.bias
+    out = out + (attention @ owner_flag.unsqueeze(-1)) * gat.lin_l.weight[:, 0]  # bias cancels
     weights = _norm_weights(rows.surface_mask, out.dtype)
-    norm = net.surface_norms[net.cfg.first_state_block]
-    return torch.tanh(_masked_instance_norm(out, weights, norm)) * weights[0]
+    x = torch.tanh(_instance_norm(out, weights, net.surface_norms[net.cfg.first_state_block]))
+    return x if weights is None else x * weights[0]
 
 
 def per_state(
@@ -227,6 +249,7 @@ def per_state(
         part_static=dense.part_static[state_assembly],
         part_mask=dense.part_mask[state_assembly],
         pair_geometry=dense.pair_geometry[state_assembly],
+        ownership=dense.ownership[state_assembly],
     )
     return rows, owner_flag
 
@@ -236,9 +259,10 @@ class SharedWork:
     """What all states of the assemblies in a DenseAssemblies share, cached between calls."""
 
     static: torch.Tensor  # (A, S, ·) state-blind surface features
-    pair: tuple[torch.Tensor, torch.Tensor] | None  # both part-block variants (no state_blocks)
+    pair: tuple[torch.Tensor, torch.Tensor] | None  # part_block_pair's (no state_blocks)
     flag_attention: FlagAttention | None  # the first state-aware block's logits (state_blocks)
     relations: torch.Tensor | None  # (A, N_src, N_dst, pair_readout) part-pair features, if any
+    relation_totals: torch.Tensor | None  # (A, N_dst, pair_readout) relations summed over sources
 
 
 def pair_relations(net: GraceNet, dense: DenseAssemblies, static: torch.Tensor) -> torch.Tensor:
@@ -246,16 +270,25 @@ def pair_relations(net: GraceNet, dense: DenseAssemblies, static: torch.Tensor) 
     source part first (`[a, m, n]` is what part n reads from part m: the layout that lets a state
     sum over sources with contiguous slices): the mean over surface pairs of the two parts, plus
     the pair's geometry term if the net reads it, 0 on the diagonal and on padding."""
-    z = net.pair_dst(static).unsqueeze(2) + net.pair_src(static).unsqueeze(1)
-    z = F.leaky_relu_(z + net.pair_rel(dense.relation.unsqueeze(-1)), net.cfg.negative_slope)
+    dst, src = _linear(net.pair_dst, static), F.linear(static, net.pair_src.weight)
+    z = (dst.unsqueeze(2) + src.unsqueeze(1)).addcmul_(
+        dense.relation.unsqueeze(-1), net.pair_rel.weight[:, 0]
+    )  # pair_rel has one input and no bias: relation × its weight column
+    z = F.leaky_relu_(z, net.cfg.negative_slope)  # (A, S_dst, S_src, P)
+    a, s, _, p = z.shape
     n = dense.part_mask.shape[1]
-    own = _ownership(dense, z.dtype)
+    own = dense.ownership
     own = own / own.sum(dim=-1, keepdim=True).clamp(min=1)  # mean over own surfaces
-    relations = torch.einsum("ans,astc,amt->amnc", own, z, own)
+    # [a, m, n] = Σ_s Σ_t own[n, s] z[s, t] own[m, t], as two batched products (an einsum of
+    # the three takes three times as long, forward and backward).
+    by_dst = torch.bmm(own, z.view(a, s, s * p)).view(a, n, s, p)  # [a, n, t]
+    relations = torch.bmm(own, by_dst.transpose(1, 2).reshape(a, s, n * p)).view(a, n, n, p)
     if net.cfg.pair_geometry:
         relations = relations + net.pair_geom(dense.pair_geometry)
-    mask = dense.part_mask.to(z.dtype)
-    pairs = mask.unsqueeze(2) * mask.unsqueeze(1) * (1 - torch.eye(n, dtype=z.dtype))
+    pairs = 1 - torch.eye(n, dtype=z.dtype)
+    if a > 1:  # no pairs with padding parts
+        mask = dense.part_mask.to(z.dtype)
+        pairs = mask.unsqueeze(2) * mask.unsqueeze(1) * pairs
     return relations * pairs.unsqueeze(-1)
 
 
@@ -266,13 +299,16 @@ def shared_work(net: GraceNet, dense: DenseAssemblies) -> SharedWork:
         pair, flags = None, flag_attention(net, dense, static)
     else:
         pair, flags = part_block_pair(net, dense, static), None
-    relations = pair_relations(net, dense, static) if net.cfg.pair_readout else None
-    return SharedWork(static, pair, flags, relations)
+    relations, totals = None, None
+    if net.cfg.pair_readout:
+        relations = pair_relations(net, dense, static)
+        totals = relations.sum(dim=1)
+    return SharedWork(static, pair, flags, relations, totals)
 
 
 def pair_readout(
     net: GraceNet,
-    relations: torch.Tensor,
+    shared: SharedWork,
     state_assembly: torch.Tensor,
     flags: torch.Tensor,
     h: torch.Tensor,
@@ -282,15 +318,20 @@ def pair_readout(
 
     Sums over source parts as a batched product and as multiply-then-sum over contiguous source
     slices: on the CPU both are several times faster than einsum, which loops over tiny matrices
-    (one per state and channel) here."""
+    (one per state and channel) here. The states of a single assembly (planning) share its pair
+    features by broadcasting, without a copy per state."""
     t, n = flags.shape
-    rel = relations[state_assembly]  # (T, N_src, N_dst, P)
-    placed = torch.bmm(flags.unsqueeze(1), rel.view(t, n, -1)).view(t, n, -1)
-    unplaced = relations.sum(dim=1)[state_assembly] - placed
-    h = torch.tanh(net.fuse(torch.cat([h, placed, unplaced], dim=-1)))
+    relations = shared.relations
+    rel = _by_state(relations, state_assembly)  # (T or 1, N_src, N_dst, P)
+    if rel.shape[0] == 1:
+        placed = (flags @ rel.view(n, -1)).view(t, n, -1)
+    else:
+        placed = torch.bmm(flags.unsqueeze(1), rel.view(t, n, -1)).view(t, n, -1)
+    unplaced = _by_state(shared.relation_totals, state_assembly) - placed
+    h = torch.tanh(_linear(net.fuse, torch.cat([h, placed, unplaced], dim=-1)))
     for gate, fuse in zip(net.round_gates, net.round_fuses, strict=True):
-        message = (rel * gate(h).unsqueeze(2)).sum(dim=1)
-        h = torch.tanh(fuse(torch.cat([h, message], dim=-1)))
+        message = (rel * _linear(gate, h).unsqueeze(2)).sum(dim=1)
+        h = torch.tanh(_linear(fuse, torch.cat([h, message], dim=-1)))
     return h
 
 
@@ -316,7 +357,7 @@ def state_features(
         x = run_surface_blocks(net, rows, x, range(cfg.first_state_block + 1, cfg.surface_blocks))
         h = part_norm(net, part_block_states(net, rows, x, owner_flag), rows.part_mask)
     if shared.relations is not None:
-        h = pair_readout(net, shared.relations, state_assembly, flags, h)
+        h = pair_readout(net, shared, state_assembly, flags, h)
     return h
 
 

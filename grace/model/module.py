@@ -14,6 +14,7 @@ from typing import Any
 
 import lightning.pytorch as pl
 import torch
+from lightning.pytorch.profilers import PassThroughProfiler
 from torchmetrics.functional.classification import binary_precision_recall_curve
 from torchmetrics.utilities.compute import auc
 
@@ -98,8 +99,13 @@ class GraceModule(pl.LightningModule):
         return loss
 
     def _step(self, batch: StateBatch, stage: str) -> torch.Tensor:
-        logits = self(batch)
-        loss = self.loss(batch, logits)
+        # Regions of the trainer's profiler (a no-op unless one is set: grace/model/profiling.py;
+        # none outside a Trainer, e.g. a step called by hand).
+        profile = (self._trainer.profiler if self._trainer else PassThroughProfiler()).profile
+        with profile(f"[GraceModule]{stage}_forward"):
+            logits = self(batch)
+        with profile(f"[GraceModule]{stage}_loss"):
+            loss = self.loss(batch, logits)
         self.log(f"{stage}_loss", loss, on_epoch=True, on_step=False, batch_size=batch.n_states)
         scores = self.net.scores(logits.detach())[batch.mask]
         self._outputs[stage].append((scores, batch.labels[batch.mask]))
@@ -126,8 +132,8 @@ class GraceModule(pl.LightningModule):
         self._log_auc("val")
 
     def configure_optimizers(self) -> Any:
-        """The configured optimiser; with a scheduler (ours: halve the lr on a plateau of the
-        monitored metric, not in the paper) the scheduler watches `monitor`."""
+        """The configured optimiser and lr schedule (not in the paper; the default a cosine over
+        the run's epochs, model/scheduler=plateau halves the lr on a plateau of `monitor`)."""
         optimizer = self.hparams.optimizer(self.parameters())
         if self.hparams.scheduler is None:
             return optimizer

@@ -16,6 +16,10 @@ Side by side in one run, same weights, `cfg.threads` threads:
   sequence AUC, P@k, both step AUCs, the feasibility schemes, the first false steps), for GRACE
   on the fast path (untrained weights) and every baseline of grace.evaluation.baselines.
 Writes `bench.json` into the run's output folder and returns the fast/PyG training speed-up.
+
+`task.profile=true` instead trains `task.profile_epochs` epochs of the experiment's first fold
+on the configured data and model and writes where their time goes (grace/model/profiling.py)
+to `profile.json` (grace/cli/epoch_profile.py).
 """
 
 from __future__ import annotations
@@ -30,6 +34,7 @@ import torch
 from hydra.utils import instantiate
 from omegaconf import MISSING, DictConfig
 
+from grace.cli.epoch_profile import profile_epochs
 from grace.cli.runner import TaskSettings
 from grace.data.atomic import write_text_atomic
 from grace.evaluation.baselines import BASELINES
@@ -57,9 +62,13 @@ class BenchSettings(TaskSettings):
     train_steps: int = MISSING
     infer_calls: int = MISSING
     prefix_passes: int = MISSING
+    profile: bool = MISSING
+    profile_epochs: int = MISSING
 
 
 def run(cfg: DictConfig) -> float:
+    if cfg.task.profile:
+        return profile_epochs(cfg)
     out_dir = Path(cfg.paths.output_dir)
     rng = np.random.default_rng(int(cfg.seed))
     train_size, infer_size = int(cfg.task.train_size), int(cfg.task.infer_size)

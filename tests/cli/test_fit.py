@@ -72,7 +72,10 @@ def test_lr_decay_watches_the_early_stopping_monitor(cfg_factory):
     constant = instantiate(cfg_factory("model.scheduler=null").model).configure_optimizers()
     assert isinstance(constant, torch.optim.Adam)
     cfg = cfg_factory(
-        "model.scheduler.factor=0.25", "monitor.metric=val_step_auc", "monitor.mode=max"
+        "model/scheduler=plateau",
+        "model.scheduler.factor=0.25",
+        "monitor.metric=val_step_auc",
+        "monitor.mode=max",
     )
     config = instantiate(cfg.model).configure_optimizers()
     decay = config["lr_scheduler"]["scheduler"]
@@ -80,6 +83,23 @@ def test_lr_decay_watches_the_early_stopping_monitor(cfg_factory):
     assert config["lr_scheduler"]["monitor"] == "val_step_auc"
     assert decay.mode == "max" and decay.factor == 0.25
     assert instantiate(cfg.callbacks.early_stopping).monitor == "val_step_auc"
+
+
+def test_the_default_schedule_ends_by_plan(cfg_factory):
+    """The default lr follows half a cosine from model.optimizer.lr to 0 over exactly
+    trainer.max_epochs epochs, whatever the validation does."""
+    cfg = cfg_factory("trainer.max_epochs=4")
+    config = instantiate(cfg.model).configure_optimizers()
+    optimizer, schedule = config["optimizer"], config["lr_scheduler"]["scheduler"]
+    lrs = []
+    for _ in range(5):
+        lrs.append(optimizer.param_groups[0]["lr"])
+        optimizer.step()
+        schedule.step()
+    lr = cfg.model.optimizer.lr
+    expected = [lr * (1 + np.cos(np.pi * e / 4)) / 2 for e in range(5)]
+    np.testing.assert_allclose(lrs, expected, atol=1e-12)
+    assert lrs[-1] == 0.0
 
 
 def test_a_fit_without_validation_watches_the_training_loss(cfg_factory, samples, tmp_path):

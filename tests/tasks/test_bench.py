@@ -36,3 +36,24 @@ def test_bench_writes_side_by_side_figures(cfg_factory, fake_simulator, model, p
     for impl in ("pyg", "fast"):
         planning = bench["planning"][impl]
         assert planning["n_parts"] == 7 and planning["prefix_passes_measured"] == 5
+
+
+def test_profile_times_the_first_folds_epochs(cfg_factory, fake_simulator, capsys):
+    cfg = cfg_factory(
+        "task=bench",
+        "task.profile=true",
+        "task.profile_epochs=1",
+        "dataset.sizes={3: 8, 4: 8}",
+        "datamodule.batch_size=16",
+        "threads=1",
+        "trainer.enable_progress_bar=false",
+    )
+    with open_dict(cfg):
+        cfg.simulator = fake_simulator
+    epoch_cpu_s = run(cfg)
+    profile = json.loads(Path(cfg.paths.output_dir, "profile.json").read_text())
+    assert profile["epochs"] == 1 and profile["threads"] == 1
+    assert profile["assemblies"]["train"] > 0 and profile["assemblies"]["val"] > 0
+    assert epoch_cpu_s == pytest.approx(sum(profile["cpu_s_per_epoch"].values()))
+    assert profile["cpu_s_per_epoch"]["backward"] > 0
+    assert "backward" in capsys.readouterr().out
