@@ -213,8 +213,8 @@ def check_cell(cfg: CellConfig) -> None:
         )
     for t in cfg.clamp.types:
         where = f"{CONFIG_DIR}/cell: field 'clamp.types' ({t.name})"
-        if not t.boxes or t.boxes[0].when != "always":
-            raise UserError(f"{where}: the first box must be the base, when: always")
+        if not t.boxes or t.boxes[0].when != CLAMP_STATES[0]:
+            raise UserError(f"{where}: the first box must be the base, when: {CLAMP_STATES[0]}")
         for b in t.boxes:
             if b.when not in CLAMP_STATES:
                 raise UserError(f"{where}: when '{b.when}' is not one of {list(CLAMP_STATES)}")

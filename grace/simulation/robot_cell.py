@@ -460,7 +460,7 @@ class RobotCell:
                 for link, owner, kind in self._contacts(arm):
                     if owner == -1:
                         clear[cell] = False
-                    elif owner != part or KINDS[kind] in ("post", "open"):
+                    elif owner != part or kind in (_POST, _OPEN):
                         masks[(*cell, category(f"arm_{mjcf.LINKS[link]}", KINDS[kind]))] |= (
                             np.int64(1) << owner
                         )
