@@ -44,6 +44,7 @@ class TuneSettings(TaskSettings):
     """Schema of `task=tune` (values in grace/conf/task/tune.yaml; the study in `tune`)."""
 
     fit: Any = MISSING  # (cfg, train, val, out_dir, callbacks) -> trained module, a partial
+    data_seed: int = MISSING  # the generated data set's seed: the selection data set
 
 
 class KeptMetric(pl.Callback):
