@@ -5,7 +5,7 @@ labelled by the MuJoCo cell of `grace/conf/simulator/dual_arm.yaml`: hand-built 
 small one shows the mechanism, otherwise the first generated A7 assembly (seed 0) that only this
 mechanism makes infeasible (or, failing that, one it shares with others); plus a feasible
 rectangle whose last rung slides in along its hosts' grooves. Slide motions are arrows, clamp
-posts hatched. `topview.png` is the one `python -m grace task=generate` writes into its run
+bases hatched. `topview.png` is the one `python -m grace task=generate` writes into its run
 folder.
 """
 
@@ -100,7 +100,10 @@ def infeasibility_figure(simulator, path: Path) -> None:
         for part, options in zip(sample.assembly.parts, motions, strict=True):
             # A stem's push into its joint(s): the shortest slide that makes all its connections.
             push = simulator.motion.slide_length + 1e-6
+            lowest = min(float(m.waypoints[0][2]) for m in options)
             for m in options:
+                if m.waypoints[0][2] > lowest:  # the same move from a higher carry height
+                    continue
                 if m.kind == "slide" and not m.joint_blockers and m.travel <= push:
                     start = part.pose[:2, 3] + np.asarray(m.waypoints[0][:2])
                     arrow = {"arrowstyle": "->", "color": "#b71c1c"}
@@ -120,7 +123,8 @@ def infeasibility_figure(simulator, path: Path) -> None:
     fig.suptitle(
         "One panel per infeasibility mechanism, labelled by the MuJoCo cell (docs/world.md); "
         "red arrows: stems sliding into their T-slot joints; blue: a rung sliding along its "
-        "hosts' grooves; hatched: clamp posts",
+        "hosts' grooves; hatched: clamp bases (a toggle clamp's handle stands on the outer half "
+        "of its base once its profile is placed)",
         fontsize=9,
     )
     fig.tight_layout()

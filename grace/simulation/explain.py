@@ -40,8 +40,9 @@ class Block:
     part: int | None
     """The part hit (for a clamp: the part it holds); None for reach and table/self hits."""
     obstacle: str
-    """'part', 'clamp' (the post of part `part`'s clamp, there from the start, or its arm, there
-    once `part` is placed), 'out of reach' or 'table or arm itself'."""
+    """'part', 'clamp' (a solid of part `part`'s clamp: its base, there from the start, what the
+    open clamp holds out, there until `part` is placed, or what closing brings, an arm or a
+    handle, there once `part` is placed), 'out of reach' or 'table or arm itself'."""
 
 
 @dataclass(frozen=True)
@@ -93,12 +94,14 @@ def candidate_blocks(
             rule = RULE_OF_BODY[body] if kind == "part" else "clamps"
             if RULE_OF_BODY[body] not in rules or rule not in rules:
                 continue
-            # A clamp post stands from the start; a part or a clamp's arm once placed.
-            hit = option.masks[category(body, kind)] & (-1 if kind == "post" else placed)
+            # A clamp's base stands from the start, its open solids until its part is placed
+            # (its own part's while that part is placed), a part and its closed clamp once placed.
+            standing = {"post": -1, "open": ~placed}.get(kind, placed)
+            hit = option.masks[category(body, kind)] & standing
             name = _BODY_NAMES[body]
             if body == "held_part" and motion.kind != "top_down":
                 name = "slide corridor"
-            obstacle = "clamp" if kind == "post" else kind
+            obstacle = "part" if kind == "part" else "clamp"
             blocks.extend(Block(rule, name, q, obstacle) for q in mask_to_parts(hit))
     return tuple(blocks)
 

@@ -186,23 +186,37 @@ def _bits(parts: Iterable[int]) -> int:
     return sum(1 << p for p in set(parts))
 
 
-def _motion(
-    kind: str, direction: np.ndarray, travel: float, height: float, blockers: int
+Way = tuple[str, np.ndarray | None, float, int]
+"""A motion's shape: kind, slide direction (None: top-down), travel, joint blockers."""
+
+
+def lowered(
+    kind: str,
+    direction: np.ndarray | None,
+    travel: float,
+    heights: Sequence[float],
+    blockers: int = 0,
 ) -> Motion:
-    """Lowered `travel` mm back along `direction`, then slid along it into the final pose."""
-    back = -direction * travel
-    waypoints = np.array([[back[0], back[1], height], [back[0], back[1], 0.0], [0.0, 0.0, 0.0]])
-    return Motion(kind, waypoints, (float(direction[0]), float(direction[1])), blockers)
+    """Carried in at the last of `heights` (ascending), lowered `travel` mm back along
+    `direction` (top-down: straight onto its pose), then slid along it into the final pose.
+    The lower heights are stops on the way down: the path is the same, and the segments it
+    shares with a part carried in lower are the same (the cell sweeps them once)."""
+    back = np.zeros(2) if direction is None else -np.asarray(direction, dtype=float) * travel
+    column = [[back[0], back[1], h] for h in reversed(heights)]
+    rest = [[0.0, 0.0, 0.0]] if direction is None else [[back[0], back[1], 0.0], [0.0, 0.0, 0.0]]
+    towards = None if direction is None else (float(direction[0]), float(direction[1]))
+    return Motion(kind, np.array(column + rest), towards, blockers)
 
 
 def insertion_motions(
     assembly: Assembly,
     slide_length: float,
     slide_lead: float,
-    approach_height: float,
+    carry_heights: Sequence[float],
     tolerance: float = 0.5,
 ) -> list[list[Motion]]:
-    """Candidate motions per part with the connections each cannot make (module docstring).
+    """Candidate motions per part with the connections each cannot make (module docstring),
+    each once per height in `carry_heights` (ascending) the part may be carried in at.
 
     A bracket is lowered top-down (its connectors are pushed into the groove through the mouth).
     A profile may be lowered top-down, which connects nothing, or slide along its axis either
@@ -213,16 +227,15 @@ def insertion_motions(
     parts = assembly.parts
     joints = end_joints(parts, tolerance)
     grooves = connectors(parts, tolerance)
-    drop = np.array([[0.0, 0.0, approach_height], [0.0, 0.0, 0.0]])
     out: list[list[Motion]] = []
     for i, part in enumerate(parts):
         if not part.type.is_profile:
-            out.append([Motion("top_down", drop)])
+            out.append(_per_height([("top_down", None, 0.0, 0)], carry_heights))
             continue
         mine = [c for c in grooves if c.profile == i]
         hosts = {j.direction: j.host for j in joints if j.part == i}
         partners = _bits(c.partner for c in mine) | _bits(hosts.values())
-        motions = [Motion("top_down", drop, None, partners)]
+        ways: list[Way] = [("top_down", None, 0.0, partners)]
         u = axis_of(part)
         for sign in (1.0, -1.0):
             d = u * sign
@@ -234,10 +247,16 @@ def insertion_motions(
             for travel in travels:
                 missed = sum(1 << q for q, v in need.items() if v + slide_lead > travel + 1e-6)
                 blockers = missed | (1 << behind if behind is not None else 0)
-                motions.append(_motion("slide", d, travel, approach_height, blockers))
-        motions += side_slides(i, parts, joints, grooves, slide_lead, approach_height)
-        out.append(motions)
+                ways.append(("slide", d, travel, blockers))
+        ways += side_slides(i, parts, joints, grooves, slide_lead)
+        out.append(_per_height(ways, carry_heights))
     return out
+
+
+def _per_height(ways: list[Way], heights: Sequence[float]) -> list[Motion]:
+    return [
+        lowered(*way[:3], heights[: k + 1], way[3]) for k in range(len(heights)) for way in ways
+    ]
 
 
 def side_slides(
@@ -246,8 +265,7 @@ def side_slides(
     joints: Sequence[EndJoint],
     grooves: Sequence[Connector],
     slide_lead: float,
-    approach_height: float,
-) -> list[Motion]:
+) -> list[Way]:
     """A stem's slides along its hosts' grooves, entering from an open end (docs/world.md).
 
     The hosts of a stem (one per joined end) are parallel, so one slide can take the stem's end
@@ -293,7 +311,7 @@ def side_slides(
                 blockers = mine | _bits(h for h in entry if h not in taken)
                 for h in taken:
                     blockers |= entry[h][1]
-                out.append(_motion("side_slide", -w * s, travel, approach_height, blockers))
+                out.append(("side_slide", -w * s, travel, blockers))
     return out
 
 

@@ -25,7 +25,15 @@ from grace.domain.assembly import PROFILE_SECTION_MM, Assembly
 from grace.domain.motion import Motion
 from grace.domain.orders import GroundTruth
 from grace.simulation.feasibility import Fixation
-from grace.simulation.joints import Connector, EndJoint, axis_of, connectors, end_joints, touching
+from grace.simulation.joints import (
+    Connector,
+    EndJoint,
+    axis_of,
+    connectors,
+    end_joints,
+    lowered,
+    touching,
+)
 from grace.simulation.simulator import Simulator
 
 HALF = PROFILE_SECTION_MM / 2
@@ -134,12 +142,12 @@ def documented_moves(
     return moves
 
 
-def _motion(direction: tuple[int, int] | None, travel: float, height: float) -> Motion:
-    if direction is None:
-        return Motion("top_down", np.array([[0.0, 0.0, height], [0.0, 0.0, 0.0]]))
-    back = -np.array(direction, dtype=float) * travel
-    waypoints = np.array([[back[0], back[1], height], [back[0], back[1], 0.0], [0.0, 0.0, 0.0]])
-    return Motion("slide", waypoints, (float(direction[0]), float(direction[1])))
+def _carried(
+    direction: tuple[int, int] | None, travel: float, heights: Sequence[float]
+) -> list[Motion]:
+    """One move carried in at each height (the motion's stops as the enumerator's)."""
+    kind = "top_down" if direction is None else "slide"
+    return [lowered(kind, direction, travel, heights[: k + 1]) for k in range(len(heights))]
 
 
 def brute_force_truth(simulator: Simulator, assembly: Assembly) -> GroundTruth:
@@ -150,7 +158,7 @@ def brute_force_truth(simulator: Simulator, assembly: Assembly) -> GroundTruth:
     joints = end_joints(assembly.parts, tolerance)
     fixation = Fixation.of(assembly, touching(assembly, tolerance))
     moves = [documented_moves(assembly, p, simulator, grooves) for p in range(assembly.n_parts)]
-    height = simulator.motion.approach_height
+    heights = simulator.carry_heights(assembly)
     lead = simulator.motion.slide_lead
 
     def can_place(state: int, part: int) -> bool:
@@ -158,8 +166,9 @@ def brute_force_truth(simulator: Simulator, assembly: Assembly) -> GroundTruth:
             return False
         return any(
             joint_allows(assembly, part, state, d, t, lead, grooves, joints)
-            and simulator.cell.check_placement(assembly, part, state, _motion(d, t, height))
+            and simulator.cell.check_placement(assembly, part, state, motion)
             for d, t in moves[part]
+            for motion in _carried(d, t, heights)
         )
 
     return GroundTruth.explore(assembly.n_parts, can_place)

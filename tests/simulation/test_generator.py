@@ -97,7 +97,7 @@ def test_host_slides_onto_placed_connectors_and_stem_slides_into_its_host(world)
     p = world.profile
     bar, stem = p(300, 0, 0, True), p(200, 40, 120)
     asm = world.build(bar, stem)
-    motions = insertion_motions(asm, slide_length=60, slide_lead=20, approach_height=80)
+    motions = insertion_motions(asm, slide_length=60, slide_lead=20, carry_heights=[80])
     # The stem: a drop (blocked by its host) or slides; into the bar (−y) nothing is missed.
     drop, *slides = motions[1]
     assert drop.kind == "top_down" and drop.joint_blockers == 0b01
@@ -142,7 +142,7 @@ def test_a_stem_slides_along_its_hosts_grooves_from_their_open_ends(world):
         p(200, 130, 120),
         p(200, 170, -80),
     )
-    motions = insertion_motions(frame, slide_length=60, slide_lead=20, approach_height=80)
+    motions = insertion_motions(frame, slide_length=60, slide_lead=20, carry_heights=[80])
     side = {
         (m.direction, round(m.travel), m.joint_blockers)
         for m in motions[3]
@@ -154,5 +154,5 @@ def test_a_stem_slides_along_its_hosts_grooves_from_their_open_ends(world):
     assert from_minus_x == {(0b0110, 320), (0b0101, 320), (0b0100, 320)}
     # A bracket in the rung's inner corner puts a connector into the rung's own groove.
     braced = world.build(*frame.parts, world.bracket(110, 20, 1))
-    rung = [m for m in insertion_motions(braced, 60, 20, 80)[3] if m.kind == "side_slide"]
+    rung = [m for m in insertion_motions(braced, 60, 20, [80])[3] if m.kind == "side_slide"]
     assert rung and all(m.joint_blockers >> 5 & 1 for m in rung)

@@ -1,9 +1,11 @@
 """The enumerator against the brute-force reference that offers every documented move, and the
-clamp posts against every grasp the labels use."""
+clamps against every grasp the labels use."""
 
 import numpy as np
 import pytest
+from hydra.utils import instantiate
 
+from grace.simulation.clearance import part_boxes
 from grace.simulation.joints import connectors, end_joints
 from grace.simulation.reference import brute_force_truth, joint_allows
 
@@ -51,31 +53,37 @@ def test_the_reference_joint_rule_on_the_last_rung(world):
         assert not allows(None, 0.0) and not allows((0, 1), 60.0)  # lowered or into one bar
 
 
-def test_no_grasp_ends_inside_a_clamp_post(real_sim):
+@pytest.mark.parametrize("variant", ["default", "open_bar"])
+def test_no_grasp_ends_inside_a_clamp_that_stands_then(real_sim, world, variant):
     """Every option the labels may use, in every reachable state of generated frames: its
-    fingers and gripper body at the final pose clear every post (they stand from the start) and
-    every placed profile's clamp arm."""
+    fingers, gripper body and held part at the final pose clear every clamp solid standing in
+    that state (bases from the start, open bars until their profile is placed, also while it is
+    placed, arms and handles once it is)."""
+    sim = real_sim
+    if variant == "open_bar":
+        sim = instantiate(world.config("dual_arm", "simulator/cell=iiwa14_dual_open_bar"))
     checked = 0
     for size, index in ((6, 0), (7, 0)):
-        assembly = generated(real_sim, size, index)
-        truth = real_sim.label(assembly).truth
-        scene = real_sim.cell.scene(assembly)
-        posts = scene.posts()
+        assembly = generated(sim, size, index)
+        truth = sim.label(assembly).truth
+        scene = sim.cell.scene(assembly)
         for state in truth.states.tolist():
+            placed = [q for q in range(size) if state >> q & 1]
+            standing = scene.present(placed) & (scene.kind != 0)
+            obstacles = np.stack([scene.lo[standing], scene.hi[standing]], axis=1)
             for part in range(size):
                 if state >> part & 1:
                     continue
-                verdict = real_sim.explain(assembly, state, part)
-                grasps = real_sim.cell.grasps(assembly, part)
-                placed = [q for q in range(size) if state >> q & 1]
-                arms = scene.boxes_of(placed)[scene.kind[np.isin(scene.owner, placed)] == 1]
-                obstacles = np.concatenate([posts, arms])
+                verdict = sim.explain(assembly, state, part)
+                grasps = sim.cell.grasps(assembly, part)
+                held = part_boxes(assembly.parts[part])
                 for candidate in verdict.candidates:
                     if not candidate.feasible:
                         continue
-                    tool = grasps[candidate.grasp].gripper_boxes(real_sim.cell.config.gripper)
-                    depth = np.minimum(tool[:, None, 1], obstacles[None, :, 1]) - np.maximum(
-                        tool[:, None, 0], obstacles[None, :, 0]
+                    tool = grasps[candidate.grasp].gripper_boxes(sim.cell.config.gripper)
+                    solid = np.concatenate([tool, held])
+                    depth = np.minimum(solid[:, None, 1], obstacles[None, :, 1]) - np.maximum(
+                        solid[:, None, 0], obstacles[None, :, 0]
                     )
                     assert not (depth > 0.5).all(axis=-1).any(), (size, index, state, part)
                     checked += 1
