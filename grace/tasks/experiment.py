@@ -147,7 +147,7 @@ def run(cfg: DictConfig) -> float:
     start = time.perf_counter()
     out_dir = Path(cfg.paths.output_dir)
     data = instantiate(cfg.dataset).load()
-    train_sizes, test_sizes, folds = protocol_folds(cfg, [sample.size for sample in data])
+    train_sizes, test_sizes, folds = protocol_folds(cfg, data)
     load_s = time.perf_counter() - start
     fold_results = run_folds(cfg, data, folds, run_fold)
     per_fold = {name: [r.metrics[name] for r in fold_results] for name in fold_results[0].metrics}

@@ -137,7 +137,7 @@ def run(cfg: DictConfig) -> float:
     """Run the feasibility study; return the mean best-sequence ROC AUC over test sizes."""
     out_dir = Path(cfg.paths.output_dir)
     data = instantiate(cfg.dataset).load()
-    train_sizes, test_sizes, folds = protocol_folds(cfg, [s.size for s in data])
+    train_sizes, test_sizes, folds = protocol_folds(cfg, data)
     results = run_folds(cfg, data, folds, run_fold)
     report = feasibility_report([metrics for metrics, _ in results])
     report["health"] = [h for _, health in results for h in health]

@@ -94,7 +94,7 @@ def _objective(cfg: DictConfig, params: list[Param], out_dir: Path, prune: bool)
         values = suggest(trial, params)
         trial_cfg = trial_config(cfg, values)
         data = data_for(trial_cfg)
-        folds = protocol_folds(trial_cfg, [sample.size for sample in data])[2][: cfg.tune.folds]
+        folds = protocol_folds(trial_cfg, data)[2][: cfg.tune.folds]
         scores = []
         for position, fold in enumerate(folds):
             kept = KeptMetric(metric, trial_cfg.monitor.metric, trial_cfg.monitor.mode)
