@@ -55,7 +55,7 @@ def run(cfg: DictConfig) -> None:
 
 
 def comparison_table(comparison: dict[str, dict]) -> str:
-    """One row per size: infeasible shares per simulator and what the robot and second arm change."""
+    """One row per size: infeasible shares per simulator, what the robot and second arm change."""
     head = ["size", "assemblies", *(f"infeasible {n}" for n in SIMULATORS)]
     head += ["labels ≠ boxes", "labels ≠ single_arm", "feasible only with two arms"]
     rows = [
