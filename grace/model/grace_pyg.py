@@ -95,7 +95,7 @@ class NetConfig:
     readout_rounds: int = 1
     pair_geometry: int = 0
     placeable_head: bool = False
-    score: Score = Score.product
+    score: Score = Score.min
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "score", Score(self.score))  # a plain string becomes the enum

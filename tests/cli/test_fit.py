@@ -134,7 +134,7 @@ def test_a_kept_checkpoint_plans_again_under_another_score(cfg_factory, samples,
     train = ("trainer.max_epochs=1", "trainer.enable_progress_bar=false")
     module = train_module(cfg_factory(*train), samples, samples, tmp_path / "run")
     again = kept_module(cfg_factory(*train, "model.net.score=geometric"), tmp_path / "run")
-    assert again.net.cfg.score is Score.geometric and module.net.cfg.score is Score.product
+    assert again.net.cfg.score is Score.geometric and module.net.cfg.score is Score.min
     for name, weights in module.state_dict().items():
         torch.testing.assert_close(again.state_dict()[name], weights)
     sample = samples[1]

@@ -51,7 +51,7 @@ def test_placeable_head_scores_both_outputs_by_the_configured_rule():
         net = GraceNet(NetConfig(placeable_head=True, score=rule.value))  # a string, as a config
         assert net.cfg.score is rule
         torch.testing.assert_close(net.scores(logits), scores)
-    assert NetConfig().score is Score.product  # the default (docs/training.md)
+    assert NetConfig().score is Score.min  # the default (docs/training.md)
     torch.testing.assert_close(
         GraceNet(NetConfig()).scores(logits[..., 0]), logits[..., 0].sigmoid()
     )
