@@ -20,7 +20,7 @@ from omegaconf import DictConfig, OmegaConf, open_dict
 from grace.data.atomic import write_text_atomic
 from grace.domain.sample import LabelledAssembly
 from grace.errors import UserError
-from grace.model.checkpoints import KEPT_CONFIG
+from grace.model.checkpoints import CHECKPOINT, KEPT_CONFIG, checkpoint_weights
 from grace.model.fit import fit
 from grace.model.module import GraceModule
 
@@ -103,10 +103,10 @@ RUN_ONLY = (
 """Keys that change where or how fast a run goes, never its results: a rerun may change them."""
 
 
-def _results_keys(node: dict) -> dict:
-    """`node` without the RUN_ONLY keys: what decides a run's results."""
+def _results_keys(node: dict, ignored: Sequence[str] = RUN_ONLY) -> dict:
+    """`node` without the `ignored` keys (RUN_ONLY: what decides a run's results)."""
     node = OmegaConf.to_container(OmegaConf.create(node))
-    for key in RUN_ONLY:
+    for key in ignored:
         *parents, name = key.split(".")
         inner = node
         for parent in parents:
@@ -146,3 +146,49 @@ def resume_from(cfg: DictConfig, out_dir: str | Path, callbacks: Sequence[object
             f"overrides as that run, or a new paths.output_dir, or delete {Path(out_dir)}"
         )
     return str(last)
+
+
+PLANNING_ONLY = (
+    *("model.net.score", "classifier", "task.checkpoints", "task.scorer", "task.threshold"),
+    *("task.ks", "task.baselines", "task.recording", "task.classifiers", "task.densities"),
+)
+"""Keys that change how a trained model plans and is measured, never its weights (the score is
+no part of the loss, and early stopping watches `monitor`): a kept checkpoint is re-planned
+under new values of these (`task.checkpoints`)."""
+
+
+def _flat(node: object, prefix: str = "") -> dict[str, object]:
+    if not isinstance(node, dict):
+        return {prefix: node}
+    out: dict[str, object] = {}
+    for key, value in node.items():
+        out |= _flat(value, f"{prefix}.{key}" if prefix else str(key))
+    return out
+
+
+def kept_module(cfg: DictConfig, fold_dir: str | Path, validated: bool = True) -> GraceModule:
+    """The module a run kept in `fold_dir` (its best checkpoint), built from `cfg.model`, so
+    that keys of PLANNING_ONLY (e.g. `model.net.score`) may differ from the run's. The run's
+    kept config must equal `cfg` in every key that decides the weights: a checkpoint of another
+    data set, protocol, model or schedule is a UserError naming the first keys that differ.
+    `validated`: whether the fold had validation assemblies (it decides the monitor)."""
+    fold_dir = Path(fold_dir)
+    ckpt, kept = fold_dir / CHECKPOINT, fold_dir / KEPT_CONFIG
+    if not ckpt.is_file() or not kept.is_file():
+        raise UserError(
+            f"task.checkpoints: no {CHECKPOINT} and {KEPT_CONFIG} in {fold_dir}; fix: the folder "
+            "of an experiment run of this protocol whose folds finished training"
+        )
+    ignored = (*RUN_ONLY, *PLANNING_ONLY)
+    before = _flat(_results_keys(OmegaConf.to_container(OmegaConf.load(kept)), ignored))
+    now = _flat(_results_keys(_resolved(fit_config(cfg, fold_dir, validated)), ignored))
+    differ = sorted(k for k in before.keys() | now.keys() if before.get(k) != now.get(k))
+    if differ:
+        shown = ", ".join(f"{k} (kept {before.get(k)!r}, now {now.get(k)!r})" for k in differ[:3])
+        raise UserError(
+            f"task.checkpoints: {kept} was trained with another config: {shown}; fix: the same "
+            "overrides as that run, changing only keys that do not train (e.g. model.net.score)"
+        )
+    module = instantiate(cfg.model)
+    module.load_state_dict(checkpoint_weights(ckpt), strict=True)
+    return module.eval()

@@ -8,11 +8,13 @@ in separate processes (joblib), each seeded by `seed + fold index`.
 
 from __future__ import annotations
 
+import logging
 import os
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from joblib import Parallel, delayed
 from lightning.pytorch import seed_everything
 from omegaconf import DictConfig, OmegaConf
@@ -22,15 +24,28 @@ from grace.cli.checks import protocol_split
 from grace.cli.determinism import cap_threads
 from grace.cli.logs import log_to_file
 from grace.cli.progress import ExperimentProgress
+from grace.domain.canonical import copy_groups
 from grace.domain.sample import LabelledAssembly
 from grace.evaluation.protocols import Fold, make_folds
 
+log = logging.getLogger(__name__)
 
-def protocol_folds(cfg: DictConfig, sizes: list[int]) -> tuple[list[int], list[int], list[Fold]]:
-    """(train sizes, test sizes, folds) of `cfg.protocol` over assemblies of `sizes`."""
+
+def protocol_folds(
+    cfg: DictConfig, data: list[LabelledAssembly]
+) -> tuple[list[int], list[int], list[Fold]]:
+    """(train sizes, test sizes, folds) of `cfg.protocol` over `data`, every group of copies
+    (the same assembly up to part numbering, grace/domain/canonical.py) kept in one fold."""
     proto = cfg.protocol
+    sizes = [sample.size for sample in data]
     train_sizes, test_sizes = protocol_split(proto, sizes)
-    folds = make_folds(sizes, train_sizes, test_sizes, proto.folds, proto.val_fraction, proto.seed)
+    groups = copy_groups(data)
+    copies = len(groups) - len(np.unique(groups))
+    if copies:
+        log.info("%d assemblies are copies of others: each kept in its original's fold", copies)
+    folds = make_folds(
+        sizes, train_sizes, test_sizes, proto.folds, proto.val_fraction, proto.seed, groups
+    )
     return train_sizes, test_sizes, folds
 
 

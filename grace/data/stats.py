@@ -9,7 +9,10 @@ to more than 1; "compound" counts those no single mechanism explains; docs/world
 `rule_decisive_fraction` is over all assemblies: the share whose set of complete orders changes
 when that rule alone is switched off (`info["decisive_rules"]`). An import without these keys
 gives zeros. A quantity without any assembly to average over is `null`. `states`, `checks` and
-`naive_checks` are totals over the size.
+`naive_checks` are totals over the size. `exact_copies` counts the assemblies that repeat an
+earlier one of the data set exactly (part types, poses, ground truth), `renumbered_copies` those
+that repeat one up to part numbering (grace/domain/canonical.py): the fold split keeps each group
+of copies in one fold (docs/protocols.md).
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from grace.domain.canonical import copy_groups
 from grace.domain.sample import LabelledAssembly
 from grace.simulation.cell_config import MECHANISMS, RULES
 
@@ -62,7 +66,15 @@ def size_stats(samples: Sequence[LabelledAssembly]) -> dict[str, Any]:
         "states": int(sum(len(s.truth.states) for s in samples)),
         "naive_checks": int(sum(s.truth.naive_checks for s in samples)),
         "checks": int(sum(s.truth.checks for s in samples)),
+        "exact_copies": _copies(samples, renumbered=False),
+        "renumbered_copies": _copies(samples, renumbered=True),
     }
+
+
+def _copies(samples: Sequence[LabelledAssembly], renumbered: bool) -> int:
+    """Assemblies that are a copy of an earlier one (by copy_groups)."""
+    groups = copy_groups(list(samples), renumbered)
+    return int((groups != np.arange(len(groups))).sum())
 
 
 def dataset_stats(

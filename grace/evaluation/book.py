@@ -43,9 +43,11 @@ TITLES = {
 
 VARIANT_COLUMNS = (
     ("strict P@1", p_at_k(1, strict=True)),
-    ("seq AUC", lambda e: e.seq_auc),
+    ("strict seq AUC", lambda e: e.seq_auc_strict),
+    ("dead-end pass rate", lambda e: e.dead_end_pass_rate),
+    ("dead-end leakage", lambda e: e.dead_end_leakage),
     ("step AUC", lambda e: e.step_auc),
-    ("off-path step AUC", lambda e: e.step_auc_offpath),
+    ("seq AUC", lambda e: e.seq_auc),
     ("paper P@1", p_at_k(1, strict=False)),
     ("feasibility ROC AUC (best seq.)", scheme_auc("best_sequence")),
 )
@@ -155,9 +157,9 @@ def results_book(paths: Sequence[Path], report_command: str) -> str:
     parts = [
         "# Results book",
         f"{len(runs)} runs, mean ± std over folds (over the seeds' fold means where a row "
-        "pools seeds). Strict figures first (an empty retrieval counts 0; step AUC off the true "
-        "orders), then the paper's; `constant` and `never` are floors (docs/metrics.md). Each "
-        "table follows the commands that made its runs and this book.",
+        "pools seeds). Strict figures first (an empty retrieval counts 0) and the dead-end rates "
+        "(lower is better), then the paper's; `constant` and `never` are floors "
+        "(docs/metrics.md). Each table follows the commands that made its runs and this book.",
     ]
     for protocol in sorted(
         {r.protocol for r in runs}, key=lambda p: (p == ONE_TO_MANY, p != "intra", p)

@@ -5,7 +5,8 @@ A fold is collapsed when any of these holds (docs/metrics.md):
 - on the test assemblies of some size its step AUC is at or below a floor policy's (`constant`,
   `never`, `random`: grace/evaluation/baselines.py) on the same states;
 - its best validation step AUC during training is at or below the constant scorer's on the same
-  validation states;
+  validation states (the states of `datamodule.states` that training validates on, labelled as
+  the logged AUC labels them);
 - its training loss never fell below the first epoch's.
 
 The last two read the trainer's CSV log (`<fold dir>/logs/version_*/metrics.csv`); without one
@@ -19,26 +20,22 @@ import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-import numpy as np
-
 from grace.domain.sample import LabelledAssembly
 from grace.evaluation.baselines import constant_scorer
 from grace.evaluation.metrics import step_auc
-from grace.evaluation.step_states import label_matrix, onpath_states
+from grace.evaluation.step_states import state_scores
+from grace.graphs.datamodule import StateSet
+from grace.planning.sequences import Scorer
 
 FLOORS = ("constant", "never", "random")
 
 
-def onpath_step_auc(scorer, samples: Sequence[LabelledAssembly]) -> float:
-    """The paper's step AUC of `scorer` over the on-path states of `samples` (NaN if none)."""
-    scores, labels = [], []
-    for sample in samples:
-        states, masks = onpath_states(sample.truth)
-        scores.append(np.asarray(scorer(sample.assembly, states)).ravel())
-        labels.append(label_matrix(masks, sample.size).ravel())
-    if not scores:
-        return float("nan")
-    return step_auc(np.concatenate(scores), np.concatenate(labels))
+def state_step_auc(
+    scorer: Scorer, samples: Sequence[LabelledAssembly], states: StateSet = StateSet.orders
+) -> float:
+    """The step AUC of `scorer` over `states` of `samples`: by default the paper's, on the
+    on-path states (NaN if there is none or no positive label)."""
+    return step_auc(*state_scores(scorer, samples, states))
 
 
 def training_curve(log_dir: Path) -> dict | None:
@@ -65,9 +62,12 @@ def fold_health(
     metrics: Mapping[str, Mapping[int, dict]],
     val: Sequence[LabelledAssembly],
     log_dir: Path | None,
+    val_states: StateSet,
 ) -> dict:
     """The health record of one fold: per test size GRACE's step AUC against the best floor's,
-    the training curve, and `collapsed` with its `reasons`."""
+    the training curve, and `collapsed` with its `reasons`. `val` and `val_states` are the
+    assemblies and states the training run validated on, so the logged validation step AUC
+    and its floor read the same states."""
     reasons = []
     sizes = {}
     for size, entry in metrics["GRACE"].items():
@@ -82,7 +82,7 @@ def fold_health(
             )
     curve = training_curve(log_dir) if log_dir is not None else None
     if curve is not None:
-        val_floor = onpath_step_auc(constant_scorer(0), val)
+        val_floor = state_step_auc(constant_scorer(0), val, StateSet(val_states))
         curve["val_floor"] = val_floor
         best = curve["val_step_auc_best"]
         if best is not None and not math.isnan(val_floor) and best <= val_floor:

@@ -7,9 +7,11 @@ policy of near-equal scores, the `constant` floor, makes plain best-first search
 prefix, N! at worst), the feasibility schemes read the best complete sequence,
 the failure analysis counts first false steps.
 
-Step AUC reads two state sets (grace/evaluation/step_states.py): the paper's, on the ground-truth
-orders, and the off-path states the planner enters after a wrong step. All N part scores of a
-state count, placed parts as negatives, as in the reference's per-node evaluation.
+The step metrics read the state sets of grace/evaluation/step_states.py: the paper's step AUC the
+states on the ground-truth orders, the dead-end pass rate the feasible steps into dead ends from
+those states, the off-path placeable AUC and the dead-end state leakage the states the planner
+enters after a wrong step. In the AUCs all N part scores of a state count, placed parts as
+negatives, as in the reference's per-node evaluation.
 """
 
 from __future__ import annotations
@@ -30,14 +32,21 @@ from grace.evaluation.feasibility import PLANNING_SCHEMES, planning_scores, sche
 from grace.evaluation.metrics import (
     LAMBDAS,
     feasibility_confusion,
+    pass_rate,
     precision_at_k,
     sequence_auc,
     sequence_pr_curve,
+    state_leakage,
     step_auc,
 )
-from grace.evaluation.step_states import label_matrix, offpath_states, onpath_states
+from grace.evaluation.step_states import (
+    dead_end_steps,
+    label_matrix,
+    offpath_states,
+    onpath_states,
+)
 from grace.planning.counting import label_table, retrieval_counts
-from grace.planning.sequences import ScoredStates, Scorer, score_states
+from grace.planning.sequences import ScoredStates, Scorer, score_states, unplaced
 from grace.planning.topk import completion_bounds, table_scores, top_k
 
 
@@ -59,6 +68,8 @@ class AssemblyEval:
     step_labels: np.ndarray
     offpath_scores: np.ndarray
     offpath_labels: np.ndarray
+    offpath_unplaced: np.ndarray
+    dead_end_scores: np.ndarray
     topk_relevant: list[bool]
     feasibility_scores: dict[str, float]
     false_steps: list[FalseStep]
@@ -79,6 +90,7 @@ def evaluate_assembly(
     retrieved, hits = retrieval_counts(scored, truth, lambdas)
     on_states, on_masks = onpath_states(truth)
     off_states, off_masks = offpath_states(truth)
+    dead_states, dead_masks = dead_end_steps(truth)
     table, extra = _step_table(scorer, sample, scored, np.concatenate([on_states, off_states]))
     best = top_k(table_scores(scored), n, k_max, threshold, completion_bounds(scored, threshold))
     valid = label_table(truth)
@@ -92,6 +104,8 @@ def evaluate_assembly(
         step_labels=label_matrix(on_masks, n),
         offpath_scores=table[off_states],
         offpath_labels=label_matrix(off_masks, n),
+        offpath_unplaced=unplaced(off_states, n),
+        dead_end_scores=table[dead_states][label_matrix(dead_masks, n)],
         topk_relevant=[_is_order(r.sequence, valid) for r in best],
         feasibility_scores=planning_scores(scored, truth, threshold),
         false_steps=first_false_steps(scored, truth, threshold),
@@ -152,17 +166,26 @@ def summarize(
         for name in PLANNING_SCHEMES
     }
     topk = [e.topk_relevant for e in evals]
+    dead_end = np.concatenate([e.dead_end_scores for e in evals])
     n_relevant = [e.relevant for e in evals]
     return {
         "assemblies": len(evals),
         "step_auc": _pooled_step_auc(
             [e.step_scores for e in evals], [e.step_labels for e in evals]
         ),
-        "step_auc_offpath": _pooled_step_auc(
+        "placeable_auc_offpath": _pooled_step_auc(
             [e.offpath_scores for e in evals], [e.offpath_labels for e in evals]
         ),
         "offpath_states": int(sum(len(e.offpath_scores) for e in evals)),
+        "dead_end_pass_rate": pass_rate(dead_end, threshold),
+        "dead_end_steps": int(dead_end.size),
+        "dead_end_leakage": state_leakage(
+            np.concatenate([e.offpath_scores for e in evals]),
+            np.concatenate([e.offpath_unplaced for e in evals]),
+            threshold,
+        ),
         "seq_auc": sequence_auc(retrieved, hits, relevant),
+        "seq_auc_strict": sequence_auc(retrieved, hits, relevant, empty_precision=0.0),
         "p_at_k": {str(k): precision_at_k(topk, n_relevant, k) for k in ks},
         "p_at_k_strict": {str(k): precision_at_k(topk, n_relevant, k, empty_value=0.0) for k in ks},
         "no_sequence": int((is_feasible & ~found).sum()),

@@ -26,40 +26,66 @@ LAMBDAS = np.arange(100) / 100.0
 """The λ sweep of the complete-sequence AUC: 100 values in [0, 1) (docs/metrics.md)."""
 
 
-def ir_precision(hits: np.ndarray, retrieved: np.ndarray) -> np.ndarray:
-    """|RET ∩ REL| / |RET|, and 1 where nothing was retrieved (the paper's empty-retrieval rule)."""
+def ir_precision(
+    hits: np.ndarray, retrieved: np.ndarray, empty_precision: float = 1.0
+) -> np.ndarray:
+    """|RET ∩ REL| / |RET|, and `empty_precision` where nothing was retrieved: 1 by the paper's
+    empty-retrieval rule, 0 for the strict twin."""
     hits, retrieved = np.asarray(hits, dtype=float), np.asarray(retrieved, dtype=float)
-    return np.divide(hits, retrieved, out=np.ones_like(hits), where=retrieved > 0)
+    out = np.full_like(hits, empty_precision)
+    return np.divide(hits, retrieved, out=out, where=retrieved > 0)
 
 
 def sequence_pr_curve(
-    retrieved: np.ndarray, hits: np.ndarray, relevant: np.ndarray
+    retrieved: np.ndarray, hits: np.ndarray, relevant: np.ndarray, empty_precision: float = 1.0
 ) -> tuple[np.ndarray, np.ndarray]:
     """Mean IR recall and precision over assemblies per λ, closed by (0, 1) and (1, 0).
 
     `retrieved` and `hits` are (assemblies, λ) counts of |RET| and |RET ∩ REL|, `relevant` the
     |REL| per assembly; only assemblies with |REL| > 0 are given (recall is undefined otherwise).
-    Points run from the highest λ to the lowest, so recall never decreases along the curve.
+    Points run from the highest λ to the lowest, so recall never decreases along the curve. An
+    empty retrieval has precision `empty_precision` (ir_precision).
     """
     retrieved, hits = np.atleast_2d(retrieved), np.atleast_2d(hits)
     relevant = np.asarray(relevant, dtype=float)[:, None]
     if (relevant <= 0).any():
         raise ValueError("sequence_pr_curve: every assembly needs ≥ 1 ground-truth sequence")
-    precision = ir_precision(hits, retrieved).mean(axis=0)[::-1]
+    precision = ir_precision(hits, retrieved, empty_precision).mean(axis=0)[::-1]
     recall = (hits / relevant).mean(axis=0)[::-1]
     return np.concatenate([[0.0], recall, [1.0]]), np.concatenate([[1.0], precision, [0.0]])
 
 
-def sequence_auc(retrieved: np.ndarray, hits: np.ndarray, relevant: np.ndarray) -> float:
+def sequence_auc(
+    retrieved: np.ndarray, hits: np.ndarray, relevant: np.ndarray, empty_precision: float = 1.0
+) -> float:
     """Complete-sequence AUC: area under the closed mean IR precision–recall curve (paper,
-    Sec. V-A.2, Metrics; the closing points are in docs/metrics.md).
+    Sec. V-A.2, Metrics; the closing points are in docs/metrics.md). `empty_precision=0` gives
+    the strict twin, where a planner that retrieves nothing scores 0 instead of 0.5.
 
     NaN when no assembly has a ground-truth sequence.
     """
     if len(relevant) == 0:
         return float("nan")
-    recall, precision = sequence_pr_curve(retrieved, hits, relevant)
+    recall, precision = sequence_pr_curve(retrieved, hits, relevant, empty_precision)
     return float(auc(recall, precision))
+
+
+def pass_rate(scores: np.ndarray, threshold: float) -> float:
+    """Share of `scores` (one per step) at or above `threshold`: the steps Algorithm 1 takes at
+    λ = threshold. NaN without steps. Read on the feasible steps into dead ends it is the
+    dead-end pass rate (docs/metrics.md)."""
+    scores = np.asarray(scores, dtype=float).ravel()
+    return float(np.mean(scores >= threshold)) if scores.size else float("nan")
+
+
+def state_leakage(scores: np.ndarray, unplaced: np.ndarray, threshold: float) -> float:
+    """Share of states (rows of `scores`, (states, N)) in which some unplaced part scores at or
+    above `threshold`, i.e. from which Algorithm 1 goes on. NaN without states. Read on the
+    states from which no order completes it is the dead-end state leakage (docs/metrics.md)."""
+    scores = np.asarray(scores, dtype=float)
+    if not scores.shape[0]:
+        return float("nan")
+    return float(np.mean(((scores >= threshold) & np.asarray(unplaced, dtype=bool)).any(axis=1)))
 
 
 def precision_at_k(

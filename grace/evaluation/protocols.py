@@ -4,7 +4,10 @@ and one-to-many.
 All three use one rule: the assemblies are split into `folds` parts with a fixed seed, stratified
 by size; fold f tests on its own assemblies of the test sizes and trains on the other folds'
 assemblies of the train sizes. Validation (`val_fraction`) is drawn from the training part only,
-so no assembly ever appears in two of train, validation and test.
+so no assembly ever appears in two of train, validation and test. Copies of one assembly (the
+same parts, poses and ground truth, in any numbering: grace/domain/canonical.py) are one group,
+dealt whole to one fold and to one of train and validation, so no copy of a test assembly is
+trained on.
 """
 
 from __future__ import annotations
@@ -78,20 +81,30 @@ def make_folds(
     folds: int,
     val_fraction: float,
     seed: int,
+    groups: Sequence[int] | None = None,
 ) -> list[Fold]:
-    """Size-stratified k-fold split over assemblies (`sizes[i]` = size of assembly i)."""
+    """Size-stratified k-fold split over assemblies (`sizes[i]` = size of assembly i).
+
+    `groups[i]` (default: every assembly its own) names the group of assembly i, e.g. the first
+    of its copies (grace.domain.canonical.copy_groups): a group goes whole to one fold, the
+    groups of a size dealt in a seeded order each to the fold holding fewest of that size so
+    far (round-robin when no assembly has a copy), and whole to train or validation."""
     check_split(folds, val_fraction)
     rng = np.random.default_rng(seed)
     sizes = np.asarray(sizes)
+    groups = np.arange(len(sizes)) if groups is None else np.asarray(groups)
     fold_of = np.empty(len(sizes), dtype=np.int64)
     for size in np.unique(sizes):
-        members = rng.permutation(np.flatnonzero(sizes == size))
-        fold_of[members] = np.arange(len(members)) % folds
+        held = np.zeros(folds, dtype=np.int64)
+        for group in rng.permutation(np.unique(groups[sizes == size])):
+            members = groups == group
+            f = int(np.argmin(held))
+            fold_of[members], held[f] = f, held[f] + members.sum()
     train_ok, test_ok = np.isin(sizes, train_sizes), np.isin(sizes, test_sizes)
     out = []
     for f in range(folds):
         train = np.flatnonzero((fold_of != f) & train_ok)
-        val = _validation(train, sizes, val_fraction, rng)
+        val = _validation(train, sizes, groups, val_fraction, rng)
         out.append(
             Fold(
                 index=f,
@@ -163,12 +176,23 @@ def _empty_fold(
 
 
 def _validation(
-    train: np.ndarray, sizes: np.ndarray, fraction: float, rng: np.random.Generator
+    train: np.ndarray,
+    sizes: np.ndarray,
+    groups: np.ndarray,
+    fraction: float,
+    rng: np.random.Generator,
 ) -> np.ndarray:
+    """Per size a seeded `fraction` of the training assemblies, whole groups: groups in a
+    seeded order until that many are picked."""
     picked = []
     for size in np.unique(sizes[train]):
-        members = rng.permutation(train[sizes[train] == size])
-        picked.append(members[: round(fraction * len(members))])
+        members = train[sizes[train] == size]
+        want, taken = round(fraction * len(members)), []
+        for group in rng.permutation(np.unique(groups[members])):
+            if len(taken) >= want:
+                break
+            taken.extend(members[groups[members] == group])
+        picked.append(np.asarray(taken, dtype=np.int64))
     return np.sort(np.concatenate(picked)) if picked else np.zeros(0, dtype=np.int64)
 
 

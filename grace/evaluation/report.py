@@ -74,9 +74,13 @@ def aggregate_size(folds: Sequence[dict]) -> SizeSummary:
         assemblies=sum(f["assemblies"] for f in folds),
         forward_passes=sum(f["passes"] for f in folds),
         step_auc=mean_std([f["step_auc"] for f in folds]),
-        step_auc_offpath=mean_std([f["step_auc_offpath"] for f in folds]),
+        placeable_auc_offpath=mean_std([f["placeable_auc_offpath"] for f in folds]),
         offpath_states=sum(f["offpath_states"] for f in folds),
+        dead_end_pass_rate=mean_std([f["dead_end_pass_rate"] for f in folds]),
+        dead_end_steps=sum(f["dead_end_steps"] for f in folds),
+        dead_end_leakage=mean_std([f["dead_end_leakage"] for f in folds]),
         seq_auc=mean_std([f["seq_auc"] for f in folds]),
+        seq_auc_strict=mean_std([f["seq_auc_strict"] for f in folds]),
         p_at_k=_p_at_k(folds, "p_at_k"),
         p_at_k_strict=_p_at_k(folds, "p_at_k_strict"),
         no_sequence=sum(f["no_sequence"] for f in folds),
@@ -114,7 +118,8 @@ def counts_table(per_size: dict[str, SizeSummary], sizes: Sequence[str]) -> str:
     rows = [
         row("test assemblies", lambda e: e.assemblies),
         row("feasible, no sequence at λ=0.5", lambda e: e.no_sequence),
-        row("off-path states (step AUC off-path)", lambda e: e.offpath_states),
+        row("dead-end steps from on-path states (pass rate)", lambda e: e.dead_end_steps),
+        row("off-path states (leakage, placeable AUC)", lambda e: e.offpath_states),
         *(row(f"P@{k} counted / empty", counted(k)) for k in (1, 2, 3)),
         row("feasibility tp/fp/tn/fn", confusion),
     ]
@@ -165,8 +170,8 @@ def results_markdown(results: ExperimentResults) -> str:
         f"Train sizes {results.train_sizes}, test sizes {results.test_sizes}, "
         f"{results.folds}-fold cross-validation, mean ± std over folds, "
         f"{results.seconds:.0f} s. Rows lead with the strict figures (an empty retrieval "
-        "counts 0; step AUC off the true orders), then the paper's; the baselines `constant` and "
-        "`never` are floors (docs/metrics.md).",
+        "counts 0) and the dead-end rates (lower is better), then the paper's; the baselines "
+        "`constant` and `never` are floors (docs/metrics.md).",
     ]
     if results.collapsed_folds:
         parts.append(f"**Warning: folds {results.collapsed_folds} collapsed** (see Folds below).")

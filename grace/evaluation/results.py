@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any
 
-from pydantic import ConfigDict, Field, TypeAdapter, ValidationError
+from pydantic import AliasChoices, ConfigDict, Field, TypeAdapter, ValidationError
 
 from grace.errors import UserError
 
@@ -104,12 +104,31 @@ class SizeSummary:
     """States scored (≤ 2^N − 1 per assembly), summed over folds."""
     step_auc: Annotated[Stat | None, OMITTED_IF_NONE] = None
     """The paper's step-by-step AUC (on-path states)."""
-    step_auc_offpath: Annotated[Stat | None, OMITTED_IF_NONE] = None
-    """Step AUC on the states off the ground-truth orders."""
+    placeable_auc_offpath: Annotated[
+        Stat | None,
+        Field(
+            default=None,
+            exclude_if=lambda value: value is None,
+            validation_alias=AliasChoices("placeable_auc_offpath", "step_auc_offpath"),
+        ),
+    ] = None
+    """Physics recall off the ground-truth orders: PR AUC of the part scores against the
+    simulator's placeable mask in the states from which no order completes (read from
+    `step_auc_offpath` in older runs)."""
     offpath_states: Annotated[int | None, OMITTED_IF_NONE] = None
     """Off-path states scored, summed over folds (absent in runs older than the metric)."""
+    dead_end_pass_rate: Annotated[Stat | None, OMITTED_IF_NONE] = None
+    """Share of the feasible steps into dead ends, from the states on the ground-truth orders,
+    that score ≥ λ (lower is better)."""
+    dead_end_steps: Annotated[int | None, OMITTED_IF_NONE] = None
+    """Feasible steps into dead ends from the states on the ground-truth orders, summed over
+    folds."""
+    dead_end_leakage: Annotated[Stat | None, OMITTED_IF_NONE] = None
+    """Share of the off-path states in which some unplaced part scores ≥ λ (lower is better)."""
     seq_auc: Annotated[Stat | None, OMITTED_IF_NONE] = None
-    """Complete-sequence AUC."""
+    """Complete-sequence AUC, the paper's rule (an empty retrieval has precision 1)."""
+    seq_auc_strict: Annotated[Stat | None, OMITTED_IF_NONE] = None
+    """Strict complete-sequence AUC (an empty retrieval has precision 0)."""
     p_at_k: Annotated[dict[str, CountedStat] | None, OMITTED_IF_NONE] = None
     """P@k per k, the paper's rule (an empty retrieval scores 1)."""
     p_at_k_strict: Annotated[dict[str, CountedStat] | None, OMITTED_IF_NONE] = None

@@ -1,20 +1,26 @@
-"""The two state sets the step AUCs read: on the ground-truth orders, and off them.
+"""The state sets the step metrics read: on the ground-truth orders, and off them.
 
 On-path (the paper's step AUC, Sec. V-A.2): every non-complete state on some ground-truth order,
 labelled with its valid next parts (placing the part still allows completion); for an infeasible
 assembly the empty state, all labels 0. These are the states the training orders describe.
 
-Off-path (`step_auc_offpath`, docs/metrics.md): the states the planner enters after a wrong step.
-Exactly: every non-complete state reachable from the empty one by physically feasible placements
-(a state of the ground-truth DAG) from which no complete order exists, i.e. a dead end or a state
-whose every feasible continuation ends in dead ends. Its label for a part is 1 iff placing that part
-is feasible from there (the ground truth's `placeable` mask); "still completes" would be 0
-everywhere. For an infeasible assembly every reachable state is off-path, the empty one included.
-States no feasible placement reaches are not in the ground truth and have no labels, so they are
-left out.
+Dead-end steps (`dead_end_pass_rate`): from the states on the ground-truth orders of a feasible
+assembly, the placements the simulator accepts that lead where no order completes (the ground
+truth's placeable but not completable parts). A planner must score each below λ.
+
+Off-path (`placeable_auc_offpath`, `dead_end_leakage`, docs/metrics.md): the states the planner
+enters after a wrong step. Exactly: every non-complete state reachable from the empty one by
+physically feasible placements (a state of the ground-truth DAG) from which no complete order
+exists, i.e. a dead end or a state whose every feasible continuation ends in dead ends. Its label
+for a part is 1 iff placing that part is feasible from there (the ground truth's `placeable`
+mask); "still completes" would be 0 everywhere. For an infeasible assembly every reachable state
+is off-path, the empty one included. States no feasible placement reaches are not in the ground
+truth and have no labels, so they are left out.
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -22,7 +28,7 @@ from grace.domain.assembly import full_mask
 from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
 from grace.graphs.assembly_graph import state_flags
-from grace.graphs.datamodule import StateSet, training_states
+from grace.graphs.datamodule import StateSet, state_masks, training_states
 from grace.planning.sequences import Scorer
 
 
@@ -32,9 +38,18 @@ def onpath_states(truth: GroundTruth) -> tuple[np.ndarray, np.ndarray]:
     return states, truth.completable[np.searchsorted(truth.states, states)]
 
 
+def dead_end_steps(truth: GroundTruth) -> tuple[np.ndarray, np.ndarray]:
+    """(states, part masks) of the feasible steps into dead ends from the states on the
+    ground-truth orders; none for an infeasible assembly (its states are all off-path)."""
+    if not truth.feasible:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    states = truth.order_states()
+    return states, state_masks(truth, states)[1]
+
+
 def offpath_states(truth: GroundTruth) -> tuple[np.ndarray, np.ndarray]:
-    """(states, label masks) of the off-path step AUC: reachable states from which no order
-    completes, labelled with the parts whose placement is feasible there."""
+    """(states, label masks) of the off-path placeable AUC and the leakage: reachable states
+    from which no order completes, labelled with the parts whose placement is feasible there."""
     keep = (truth.completable == 0) & (truth.states != full_mask(truth.n_parts))
     return truth.states[keep].astype(np.int64), truth.placeable[keep]
 
@@ -45,11 +60,15 @@ def label_matrix(masks: np.ndarray, n_parts: int) -> np.ndarray:
     return (np.asarray(masks, dtype=np.int64)[:, None] & bits) != 0
 
 
-def state_scores(scorer: Scorer, samples: list[LabelledAssembly]) -> tuple[np.ndarray, np.ndarray]:
-    """Flat (scores, labels) over the step-AUC test states of `samples` (docs/metrics.md)."""
+def state_scores(
+    scorer: Scorer, samples: Sequence[LabelledAssembly], states: StateSet = StateSet.orders
+) -> tuple[np.ndarray, np.ndarray]:
+    """Flat (scores, labels) over `states` of `samples`: by default the step-AUC test states
+    (docs/metrics.md), or the states a training run validates on (`datamodule.states`), labelled
+    1 for a valid next part."""
     scores, labels = [], []
     for sample in samples:
-        s, y = training_states(sample, StateSet.orders)
+        s, y = training_states(sample, states)
         scores.append(scorer(sample.assembly, s).ravel())
         labels.append(state_flags(y, sample.size).numpy().ravel())
     if not scores:

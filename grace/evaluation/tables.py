@@ -34,16 +34,19 @@ METRIC_ROWS: tuple[tuple[str, Metric], ...] = (
     ("P@1 (strict: empty = 0)", p_at_k(1, strict=True)),
     ("P@2 (strict: empty = 0)", p_at_k(2, strict=True)),
     ("P@3 (strict: empty = 0)", p_at_k(3, strict=True)),
-    ("Step-by-Step AUC (off-path)", lambda e: e.step_auc_offpath),
+    ("Complete Sequence AUC (strict: empty = 0)", lambda e: e.seq_auc_strict),
+    ("Dead-end pass rate (lower is better)", lambda e: e.dead_end_pass_rate),
+    ("Dead-end state leakage (lower is better)", lambda e: e.dead_end_leakage),
     ("Step-by-Step AUC", lambda e: e.step_auc),
-    ("Complete Sequence AUC", lambda e: e.seq_auc),
+    ("Placeable AUC off-path (physics recall)", lambda e: e.placeable_auc_offpath),
+    ("Complete Sequence AUC (paper: empty = 1)", lambda e: e.seq_auc),
     ("P@1 (paper: empty = 1)", p_at_k(1, strict=False)),
     ("P@2 (paper: empty = 1)", p_at_k(2, strict=False)),
     ("P@3 (paper: empty = 1)", p_at_k(3, strict=False)),
     ("Feasibility ROC AUC (best sequence)", scheme_auc("best_sequence")),
     ("Feasibility ROC AUC (bottleneck)", scheme_auc("bottleneck")),
 )
-"""Rows of the results tables, strict figures first (label, metric)."""
+"""Rows of the results tables, strict figures and the dead-end rates first (label, metric)."""
 
 
 def value(entry: SizeSummary | None, metric: Metric) -> Stat | CountedStat | None:

@@ -16,10 +16,12 @@ of the many mid-sequence states. Weights have mean 1 per size; validation stays 
 
 `dead_end_target=t` (not in the paper; 0 keeps its labels) grades the labels: a part whose
 placement is physically feasible but leads to a dead end (the ground truth's `placeable` but not
-`completable`) gets the target t instead of 0, in training and validation alike. With 0 < t < λ the
-planner still never takes such a part, but the network learns to rank feasible placements above
-infeasible ones in every state, including the dead ends the planner enters after a wrong step,
-which is what the off-path step AUC measures (docs/metrics.md). The step AUCs still count only
+`completable`) gets the target t instead of 0, in training and validation alike. With 0 < t < λ
+the planner does not take such a part as long as its score stays at or below the next-step
+output (model.net.score, docs/training.md) and the output learns t (the dead-end pass rate
+measures it), and the network learns to rank feasible placements above infeasible ones in every
+state, including the dead ends the planner enters after a wrong step (the placeable AUC
+off-path, docs/metrics.md). The step AUCs still count only
 label 1 as positive. `dead_end_weight=w` scales the training loss of every state from which no
 order completes (all its labels 0: the dead ends `states="reachable"` adds, and the states of an
 infeasible assembly), so that at large sizes, where they outnumber the states on the true orders,

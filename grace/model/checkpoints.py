@@ -15,6 +15,7 @@ from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 
 from grace.errors import UserError
+from grace.model.grace_pyg import Score
 from grace.model.module import GraceModule
 
 KEPT_CONFIG = "config.yaml"
@@ -55,6 +56,8 @@ def load_model(ckpt: Path) -> tuple[GraceModule, DictConfig]:
             f"that kept its config (every train and experiment run writes one)"
         )
     cfg = OmegaConf.load(kept)
+    if "score" not in cfg.model.net:  # kept before the score was a key: those runs planned
+        cfg.model.net.score = Score.geometric.value  # with the geometric mean
     try:
         state = checkpoint_weights(ckpt)
     except Exception as e:

@@ -12,7 +12,9 @@ The fast path (grace_fast.py) reuses exactly these modules' parameters.
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
+from enum import StrEnum
 
 import torch
 import torch.nn.functional as F
@@ -23,6 +25,29 @@ from torch_geometric.nn import GATv2Conv, HeteroConv, InstanceNorm
 from grace.errors import UserError
 from grace.graphs.assembly_graph import PAIR_EDGE, PART_EDGE, SURFACE_EDGE
 from grace.graphs.pair_geometry import PAIR_GEOMETRY_FEATURES
+
+
+class Score(StrEnum):
+    """How the two outputs of `placeable_head` form the planner's score (`model.net.score`,
+    docs/training.md): `product` y_step · y_place, `min` min(y_step, y_place), `geometric`
+    sqrt(y_step · y_place), `next_step` y_step alone. With `product` and `min` either output
+    vetoes a step: a part whose next-step output is below λ scores below λ whatever the physical
+    output says, so a dead-end step learnt at its target (< λ) is never planned; the geometric
+    mean lifts such a step above λ when the physical output is confident (0.4 → 0.63)."""
+
+    product = "product"
+    min = "min"
+    geometric = "geometric"
+    next_step = "next_step"
+
+
+SCORE_RULES: dict[Score, Callable[[torch.Tensor], torch.Tensor]] = {
+    Score.product: lambda log_p: torch.exp(log_p.sum(dim=-1)),
+    Score.min: lambda log_p: torch.exp(log_p.min(dim=-1).values),
+    Score.geometric: lambda log_p: torch.exp(log_p.mean(dim=-1)),
+    Score.next_step: lambda log_p: torch.exp(log_p[..., 0]),
+}
+"""Each rule on the two outputs' log-sigmoids (..., 2) → scores (...)."""
 
 
 @dataclass(frozen=True)
@@ -54,10 +79,11 @@ class NetConfig:
 
     `placeable_head` (not in the paper: off here, on in `grace_geometric`) adds a second output
     per part, trained to say whether placing the part is physically feasible (the ground truth's
-    `placeable`, dead ends included), beside the next-step output; the policy's score is the
-    geometric mean of both (:meth:`GraceNet.scores`). A wrong complete sequence needs a
-    physically infeasible step that scores above λ, and the second output is trained on exactly
-    that question in every reachable state.
+    `placeable`, dead ends included), beside the next-step output; `score` says how both form
+    the policy's score (:class:`Score`, :meth:`GraceNet.scores`; ignored with one output). A
+    wrong complete sequence needs a physically infeasible step that scores above λ, and the
+    second output is trained on exactly that question in every reachable state. The score is not
+    part of the loss: the same weights plan under every rule.
     """
 
     hidden: int = 94
@@ -69,8 +95,10 @@ class NetConfig:
     readout_rounds: int = 1
     pair_geometry: int = 0
     placeable_head: bool = False
+    score: Score = Score.min
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "score", Score(self.score))  # a plain string becomes the enum
         if not 0 <= self.state_blocks <= self.surface_blocks:
             raise UserError(
                 f"model.net.state_blocks={self.state_blocks}: use 0 to model.net.surface_blocks="
@@ -207,9 +235,9 @@ class GraceNet(nn.Module):
 
     def scores(self, logits: torch.Tensor) -> torch.Tensor:
         """The policy's next-step scores from :meth:`readout`'s logits: the sigmoid, or with
-        the placeable head the geometric mean of both outputs' sigmoids."""
+        the placeable head both outputs' sigmoids combined by `cfg.score`."""
         if self.cfg.placeable_head:
-            return torch.exp(F.logsigmoid(logits).mean(dim=-1))
+            return SCORE_RULES[self.cfg.score](F.logsigmoid(logits))
         return torch.sigmoid(logits)
 
     def _pair_readout(

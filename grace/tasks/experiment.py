@@ -22,6 +22,7 @@ from hydra.utils import instantiate
 from omegaconf import MISSING, DictConfig, OmegaConf
 from pydantic import TypeAdapter
 
+from grace.cli.fit import kept_module
 from grace.cli.folds import protocol_folds, run_folds, start_fold
 from grace.cli.progress import FoldReporter
 from grace.cli.runner import TaskSettings, task_overrides
@@ -60,6 +61,7 @@ class ExperimentSettings(TaskSettings):
     baselines: list[str] = MISSING
     train_feasible_only: bool = MISSING  # train on feasible assemblies only (training_subset)
     fold_jobs: int = MISSING
+    checkpoints: str | None = None  # a run folder: plan its folds' kept models, train none
     recording: RecordingSettings = field(default_factory=RecordingSettings)  # sequences.rrd
 
 
@@ -107,14 +109,13 @@ def run_fold(
     )
     tick = time.perf_counter()
     feasible_only = cfg.task.train_feasible_only
+    fit_train, fit_val = (training_subset(s, feasible_only) for s in (train, val))
     fold_dir = Path(cfg.paths.output_dir) / f"fold_{fold.index}"
-    module = instantiate(cfg.task.fit)(
-        cfg,
-        training_subset(train, feasible_only),
-        training_subset(val, feasible_only),
-        fold_dir,
-        callbacks=[progress],
-    )
+    if cfg.task.checkpoints is None:
+        module = instantiate(cfg.task.fit)(cfg, fit_train, fit_val, fold_dir, callbacks=[progress])
+    else:
+        fold_dir = Path(cfg.task.checkpoints) / f"fold_{fold.index}"
+        module = kept_module(cfg, fold_dir, validated=bool(fit_val))
     train_s = time.perf_counter() - tick
     progress.stage("evaluating")
     tick = time.perf_counter()
@@ -128,7 +129,7 @@ def run_fold(
     if estimator is not None:
         classifiers = {cfg.classifier.name: instantiate(estimator)}
         add_schemes(metrics["GRACE"], embedding_schemes(module, train + val, test, classifiers))
-    health = fold_health(metrics, val, fold_dir / "logs")
+    health = fold_health(metrics, fit_val, fold_dir / "logs", cfg.datamodule.states)
     if health["collapsed"]:
         log.warning("fold %d COLLAPSED: %s", fold.index, "; ".join(health["reasons"]))
     settings = RecordingSettings(**cfg.task.recording)
@@ -146,7 +147,7 @@ def run(cfg: DictConfig) -> float:
     start = time.perf_counter()
     out_dir = Path(cfg.paths.output_dir)
     data = instantiate(cfg.dataset).load()
-    train_sizes, test_sizes, folds = protocol_folds(cfg, [sample.size for sample in data])
+    train_sizes, test_sizes, folds = protocol_folds(cfg, data)
     load_s = time.perf_counter() - start
     fold_results = run_folds(cfg, data, folds, run_fold)
     per_fold = {name: [r.metrics[name] for r in fold_results] for name in fold_results[0].metrics}

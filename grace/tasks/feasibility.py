@@ -24,12 +24,13 @@ from hydra.utils import instantiate
 from omegaconf import MISSING, DictConfig
 from pydantic import TypeAdapter
 
+from grace.cli.fit import kept_module
 from grace.cli.folds import protocol_folds, run_folds, start_fold
 from grace.cli.progress import FoldReporter
 from grace.data.atomic import write_text_atomic
 from grace.domain.sample import LabelledAssembly
 from grace.evaluation.baselines import constant_scorer
-from grace.evaluation.collapse import fold_health, onpath_step_auc
+from grace.evaluation.collapse import fold_health, state_step_auc
 from grace.evaluation.feasibility import (
     add_schemes,
     embedding_schemes,
@@ -60,18 +61,22 @@ FEASIBLE_ONLY = "feasible-only GRACE, "
 
 
 def _health(
-    scorer: Scorer, test: list[LabelledAssembly], val: list[LabelledAssembly], log_dir: Path
+    cfg: DictConfig,
+    scorer: Scorer,
+    test: list[LabelledAssembly],
+    val: list[LabelledAssembly],
+    log_dir: Path,
 ) -> dict:
     """fold_health from the on-path step AUC of the model and of the constant floor per size."""
     sizes = sorted({s.size for s in test})
     metrics = {
         name: {
-            size: {"step_auc": onpath_step_auc(policy, [s for s in test if s.size == size])}
+            size: {"step_auc": state_step_auc(policy, [s for s in test if s.size == size])}
             for size in sizes
         }
         for name, policy in (("GRACE", scorer), ("constant", constant_scorer(0)))
     }
-    return fold_health(metrics, val, log_dir)
+    return fold_health(metrics, val, log_dir, cfg.datamodule.states)
 
 
 def run_fold(
@@ -107,7 +112,11 @@ def run_fold(
     for prefix, fit_train, fit_val, fold_dir in runs:
         log.info("fold %d: training %sGRACE on %d assemblies", fold.index, prefix, len(fit_train))
         tick = time.perf_counter()
-        module = fit(cfg, fit_train, fit_val, fold_dir, callbacks=[progress])
+        if cfg.task.checkpoints is None:
+            module = fit(cfg, fit_train, fit_val, fold_dir, callbacks=[progress])
+        else:
+            fold_dir = Path(cfg.task.checkpoints) / fold_dir.name
+            module = kept_module(cfg, fold_dir, validated=bool(fit_val))
         seconds["train"] += time.perf_counter() - tick
         progress.stage("evaluating")
         tick = time.perf_counter()
@@ -115,7 +124,7 @@ def run_fold(
         add_schemes(metrics, planning_schemes(scorer, test, float(cfg.task.threshold)), prefix)
         schemes = embedding_schemes(module, fit_train + fit_val, test, classifiers, densities)
         add_schemes(metrics, schemes, prefix)
-        state = _health(scorer, test, fit_val, fold_dir / "logs")
+        state = _health(cfg, scorer, test, fit_val, fold_dir / "logs")
         if state["collapsed"]:
             log.warning("fold %d %sCOLLAPSED: %s", fold.index, prefix, "; ".join(state["reasons"]))
         health.append({"fold": fold.index, "model": prefix.rstrip(", ") or "GRACE", **state})
@@ -128,7 +137,7 @@ def run(cfg: DictConfig) -> float:
     """Run the feasibility study; return the mean best-sequence ROC AUC over test sizes."""
     out_dir = Path(cfg.paths.output_dir)
     data = instantiate(cfg.dataset).load()
-    train_sizes, test_sizes, folds = protocol_folds(cfg, [s.size for s in data])
+    train_sizes, test_sizes, folds = protocol_folds(cfg, data)
     results = run_folds(cfg, data, folds, run_fold)
     report = feasibility_report([metrics for metrics, _ in results])
     report["health"] = [h for _, health in results for h in health]

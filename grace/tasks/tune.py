@@ -44,6 +44,7 @@ class TuneSettings(TaskSettings):
     """Schema of `task=tune` (values in grace/conf/task/tune.yaml; the study in `tune`)."""
 
     fit: Any = MISSING  # (cfg, train, val, out_dir, callbacks) -> trained module, a partial
+    data_seed: int = MISSING  # the generated data set's seed: the selection data set
 
 
 class KeptMetric(pl.Callback):
@@ -93,7 +94,7 @@ def _objective(cfg: DictConfig, params: list[Param], out_dir: Path, prune: bool)
         values = suggest(trial, params)
         trial_cfg = trial_config(cfg, values)
         data = data_for(trial_cfg)
-        folds = protocol_folds(trial_cfg, [sample.size for sample in data])[2][: cfg.tune.folds]
+        folds = protocol_folds(trial_cfg, data)[2][: cfg.tune.folds]
         scores = []
         for position, fold in enumerate(folds):
             kept = KeptMetric(metric, trial_cfg.monitor.metric, trial_cfg.monitor.mode)

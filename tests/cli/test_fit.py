@@ -1,12 +1,17 @@
 import csv
 
 import numpy as np
+import pytest
 import torch
 from hydra.utils import instantiate
+from omegaconf import OmegaConf
 
-from grace.cli.fit import train_module
+from grace.cli.fit import kept_module, train_module
+from grace.errors import UserError
 from grace.evaluation.metrics import step_auc
 from grace.evaluation.step_states import state_scores
+from grace.model.checkpoints import load_model
+from grace.model.grace_pyg import Score
 from grace.model.loss import grace_loss
 from grace.model.module import GraceModule
 from grace.model.module import step_auc as logged_step_auc
@@ -141,3 +146,35 @@ def test_two_heads_train_next_step_and_placeable_outputs_on_their_own_targets(cf
     place = grace_loss(logits[..., 1], batch.placeable, batch.flags, batch.mask, module.delta)
     torch.testing.assert_close(loss, step + place)
     assert not torch.equal(batch.placeable, batch.labels)
+
+
+def test_a_kept_checkpoint_plans_again_under_another_score(cfg_factory, samples, tmp_path):
+    """task.checkpoints: the fold's weights, the current config's score rule; a config that
+    trains differently is refused naming the key."""
+    train = ("trainer.max_epochs=1", "trainer.enable_progress_bar=false")
+    module = train_module(cfg_factory(*train), samples, samples, tmp_path / "run")
+    again = kept_module(cfg_factory(*train, "model.net.score=geometric"), tmp_path / "run")
+    assert again.net.cfg.score is Score.geometric and module.net.cfg.score is Score.min
+    for name, weights in module.state_dict().items():
+        torch.testing.assert_close(again.state_dict()[name], weights)
+    sample = samples[1]
+    logits = module.impl.assembly_logits(
+        module.net, make_scorer(module)._prepared(sample.assembly), sample.truth.states
+    )
+    np.testing.assert_allclose(
+        make_scorer(again)(sample.assembly, sample.truth.states),
+        torch.sigmoid(logits).prod(dim=-1).sqrt().detach().numpy(),
+        atol=1e-6,
+    )
+    with pytest.raises(UserError, match=r"model\.net\.hidden \(kept 94, now 32\)"):
+        kept_module(cfg_factory(*train, "model.net.hidden=32"), tmp_path / "run")
+    with pytest.raises(UserError, match=r"dataset\.seed \(kept 0, now 1\)"):
+        kept_module(cfg_factory(*train, "experiment=selection"), tmp_path / "run")
+    with pytest.raises(UserError, match=r"no checkpoints/best\.ckpt"):
+        kept_module(cfg_factory(*train), tmp_path / "nowhere")
+    # a run kept before the score was a key planned with the geometric mean: task=plan keeps it
+    kept = OmegaConf.load(tmp_path / "run" / "config.yaml")
+    del kept.model.net["score"]
+    OmegaConf.save(kept, tmp_path / "run" / "config.yaml")
+    older, _ = load_model(tmp_path / "run" / "checkpoints" / "best.ckpt")
+    assert older.net.cfg.score is Score.geometric

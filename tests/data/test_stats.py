@@ -51,6 +51,9 @@ def test_size_stats_known_values():
     # brute force, step by step until the first failure: free 3·3! = 18; chain 6 + 2 + 1 = 9;
     # part 2 never placeable: 6 + 2 + 2 + 2·1 = 12
     assert s["naive_checks"] == 18 + 2 * 9 + 4 * 12
+    # the same parts and ground truth (the info is no part of an assembly): the second chain and
+    # the last three never-last ones repeat an earlier assembly
+    assert s["exact_copies"] == s["renumbered_copies"] == 1 + 3
 
 
 def test_undefined_fractions_are_null_and_sizes_are_string_keys():

@@ -70,7 +70,7 @@ def test_generate_and_load_are_deterministic(fake_cfg, tmp_path):
     generate(again)
     assert _data_bytes(dataset_dir(cfg)) == _data_bytes(dataset_dir(again))
     assert load_generated(again) == samples
-    other_seed = fake_cfg("seed=1")
+    other_seed = fake_cfg("dataset.seed=1")
     generate(other_seed)
     assert _data_bytes(dataset_dir(other_seed)) != _data_bytes(dataset_dir(cfg))
 
@@ -81,7 +81,8 @@ def test_cache_key_ignores_operational_keys_only(fake_cfg):
         dataset_dir(fake_cfg("dataset.chunk_size=7", "dataset.workers=2", sizes="{3: 1}")) == base
     )
     assert dataset_dir(fake_cfg("dataset.num_shards=3", "dataset.shard=2")) == base
-    assert dataset_dir(fake_cfg("seed=5")) != base
+    assert dataset_dir(fake_cfg("dataset.seed=5")) != base
+    assert dataset_dir(fake_cfg("seed=5")) == base  # the training seed is no data key
     changed = fake_cfg()
     changed.simulator.spacing = 300.0
     assert dataset_dir(changed) != base

@@ -139,7 +139,40 @@ def test_step_auc_off_the_true_orders_on_a_hand_case():
     assert summary["offpath_states"] == 2
     # off-path scores .9 (neg), .7 (pos), .2 and 0s (neg): the PR curve runs (1, 1/2) → (0, 0)
     # → (0, 1), area 1/4
-    assert summary["step_auc_offpath"] == pytest.approx(0.25)
+    assert summary["placeable_auc_offpath"] == pytest.approx(0.25)
+
+
+def test_dead_end_pass_rate_and_leakage_on_a_hand_case():
+    def scorer(assembly, states):
+        return np.array([DEAD_END_SCORES.get(int(s), [0.0] * 3) for s in states])
+
+    summary = evaluate_by_size(scorer, [DEAD_END])[3]
+    # the one feasible step into a dead end from the true order's states: part 0 first, 0.2
+    assert summary["dead_end_steps"] == 1 and summary["dead_end_pass_rate"] == 0.0
+    # both off-path states go on: {0} through part 2 (0.7), {0, 2} through part 1 (0.9)
+    assert summary["dead_end_leakage"] == 1.0
+    lifted = {**DEAD_END_SCORES, 0b000: [0.6, 0.9, 0.1], 0b101: [0.0, 0.4, 0.0]}
+    summary = evaluate_by_size(
+        lambda assembly, states: np.array([lifted.get(int(s), [0.0] * 3) for s in states]),
+        [DEAD_END],
+    )[3]
+    assert summary["dead_end_pass_rate"] == 1.0 and summary["dead_end_leakage"] == 0.5
+    # an infeasible assembly has no true order, so no dead-end step counted; its states leak
+    stuck = evaluate_by_size(constant_scorer(0), [STUCK])[2]
+    assert stuck["dead_end_steps"] == 0 and np.isnan(stuck["dead_end_pass_rate"])
+    assert stuck["dead_end_leakage"] == 1.0
+
+
+def test_floors_of_the_dead_end_rates_and_the_strict_sequence_auc():
+    never = evaluate_by_size(never_scorer(0), [CHAIN, DEAD_END])[3]
+    assert never["dead_end_pass_rate"] == never["dead_end_leakage"] == 0.0
+    assert never["seq_auc_strict"] == 0.0 and never["seq_auc"] == pytest.approx(0.5)
+    constant = evaluate_by_size(constant_scorer(0), [CHAIN, DEAD_END])[3]
+    assert constant["dead_end_pass_rate"] == constant["dead_end_leakage"] == 1.0
+    # λ ≤ 0.5 retrieves all 6 orders of each (precision 1/3 and 1/6, recall 1), above nothing:
+    # the strict curve runs (0, 1) → (0, 0) → (1, 1/4) → (1, 0), area 1/8
+    assert constant["seq_auc_strict"] == pytest.approx((1 / 3 + 1 / 6) / 2 / 2)
+    assert constant["seq_auc"] == pytest.approx((1 + (1 / 3 + 1 / 6) / 2) / 2)
 
 
 def test_failures_of_feasible_and_infeasible_assemblies_are_kept_apart():

@@ -6,9 +6,11 @@ from grace.evaluation.metrics import (
     feasibility_confusion,
     feasibility_roc,
     ir_precision,
+    pass_rate,
     precision_at_k,
     sequence_auc,
     sequence_pr_curve,
+    state_leakage,
     tpr_at_fpr,
 )
 
@@ -36,6 +38,31 @@ def test_policy_that_never_finds_anything_has_auc_one_half():
     # recall 0 and (empty-retrieval) precision 1 everywhere: the closed curve is the diagonal
     zeros = np.zeros((3, 100))
     assert sequence_auc(zeros, zeros, np.array([1, 2, 3])) == pytest.approx(0.5)
+
+
+def test_strict_sequence_auc_gives_an_empty_retrieval_precision_zero():
+    zeros = np.zeros((3, 100))
+    assert sequence_auc(zeros, zeros, np.array([1, 2, 3]), empty_precision=0.0) == 0.0
+    # A retrieves its one true order at every λ; B retrieves nothing above λ = 0.49 and its two
+    # orders among 4 below. Paper rule: B's empty retrievals have precision 1; strict: 0.
+    retrieved = np.array([[1.0] * 100, [4.0] * 50 + [0.0] * 50])
+    hits = np.array([[1.0] * 100, [2.0] * 50 + [0.0] * 50])
+    relevant = np.array([1, 2])
+    # from high λ: 50 points (recall 0.5, precision (1 + e) / 2), then 50 at (1, (1 + 0.5) / 2)
+    for empty, high in ((1.0, 1.0), (0.0, 0.5)):
+        area = 0.5 * (1 + high) / 2 + 0.5 * (high + 0.75) / 2
+        assert sequence_auc(retrieved, hits, relevant, empty) == pytest.approx(area)
+    assert sequence_auc(retrieved, hits, relevant, 0.0) < sequence_auc(retrieved, hits, relevant)
+
+
+def test_pass_rate_and_state_leakage_count_what_reaches_lambda():
+    assert pass_rate(np.array([0.2, 0.5, 0.49, 0.9]), 0.5) == 0.5  # 0.5 and 0.9 pass
+    assert np.isnan(pass_rate(np.zeros(0), 0.5))
+    scores = np.array([[0.9, 0.1, 0.2], [0.4, 0.6, 0.0], [0.3, 0.3, 0.3]])
+    unplaced = np.array([[False, True, True], [True, True, True], [True, True, False]])
+    # row 0: only the placed part reaches λ (no leak); row 1 leaks through part 1; row 2 does not
+    assert state_leakage(scores, unplaced, 0.5) == pytest.approx(1 / 3)
+    assert np.isnan(state_leakage(np.zeros((0, 3)), np.zeros((0, 3), bool), 0.5))
 
 
 def test_sequence_auc_averages_precision_and_recall_over_assemblies():

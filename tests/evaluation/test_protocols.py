@@ -95,3 +95,27 @@ def test_split_holds_out_whole_assemblies_per_size(samples_by_size):
     assert [id(s) for s in again[2]] == [id(s) for s in test]
     with pytest.raises(UserError, match=r"task\.test_fraction"):
         split_assemblies(samples_by_size, 1.5, 0.15, seed=0)
+
+
+def test_copies_stay_in_one_fold_and_on_one_side_of_the_split():
+    rng = np.random.default_rng(3)
+    sizes = np.array(SIZES)
+    # every fifth assembly is a copy of an earlier one of its size
+    groups = np.arange(len(sizes))
+    for i in range(len(sizes)):
+        same = np.flatnonzero(sizes[:i] == sizes[i])
+        if i % 5 == 0 and same.size:
+            groups[i] = groups[rng.choice(same)]
+    folds = make_folds(SIZES, [3, 4, 5, 6, 7], [3, 4, 5, 6, 7], 4, 0.15, 0, groups)
+    tested = []
+    for fold in folds:
+        sides = [set(groups[list(part)]) for part in (fold.train, fold.val, fold.test)]
+        assert not sides[0] & sides[2] and not sides[1] & sides[2] and not sides[0] & sides[1]
+        tested += fold.test
+    assert sorted(tested) == list(range(len(SIZES)))
+    fold_of = {i: f.index for f in folds for i in f.test}
+    assert len({(g, fold_of[i]) for i, g in enumerate(groups)}) == len(set(groups))
+    # dealt to the fold holding fewest: per size the folds differ by at most a group's size
+    for size in set(SIZES):
+        held = [int((sizes[list(f.test)] == size).sum()) for f in folds]
+        assert max(held) - min(held) <= max(np.bincount(groups[sizes == size]))

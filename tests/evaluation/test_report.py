@@ -1,6 +1,8 @@
 import json
 import math
 
+import pytest
+
 from grace.evaluation.report import aggregate, mean_std, results_markdown, write_results
 from grace.evaluation.results import (
     Confusion,
@@ -20,14 +22,18 @@ def _scheme(auc, tpr):
     return {"roc_auc": auc, "tpr_at_fpr": tpr, "roc": None, "assemblies": 4, "feasible": 3}
 
 
-def _fold(step, seq, p1, strict=None, offpath=math.nan, best=math.nan):
+def _fold(step, seq, p1, strict=None, offpath=math.nan, best=math.nan, dead_end=math.nan):
     return {
         "assemblies": 4,
         "passes": 31,
         "step_auc": step,
-        "step_auc_offpath": offpath,
+        "placeable_auc_offpath": offpath,
         "offpath_states": 5,
+        "dead_end_pass_rate": dead_end,
+        "dead_end_steps": 0 if math.isnan(dead_end) else 10,
+        "dead_end_leakage": math.nan if math.isnan(dead_end) else 2 * dead_end,
         "seq_auc": seq,
+        "seq_auc_strict": seq - 0.1,
         "p_at_k": {
             "1": {"value": p1, "assemblies": 2, "empty": 1},
             "3": {"value": math.nan, "assemblies": 0, "empty": 0},
@@ -60,7 +66,8 @@ def test_aggregate_keeps_sizes_as_strings_and_drops_undefined_metrics():
     assert five.p_at_k_strict["1"] == CountedStat(mean=0.0, std=0.5, assemblies=4, empty=2)
     assert "3" not in five.p_at_k  # undefined in every fold: absent, not zero
     written = {size: plain(entry) for size, entry in per_size.items()}
-    assert "seq_auc" not in written["3"] and "step_auc_offpath" not in written["5"]
+    assert "seq_auc" not in written["3"] and "placeable_auc_offpath" not in written["5"]
+    assert "dead_end_pass_rate" not in written["5"] and written["5"]["dead_end_steps"] == 0
     assert "schemes" not in written["5"]["feasibility"]  # every scheme undefined
     assert "runs" not in written["5"]["step_auc"]  # a fold mean, not a pooled one
     assert five.feasibility.confusion == Confusion(tp=4, fp=0, tn=2, fn=2)
@@ -68,13 +75,16 @@ def test_aggregate_keeps_sizes_as_strings_and_drops_undefined_metrics():
     assert five.forward_passes == 62 and five.offpath_states == 10
 
 
-def test_offpath_and_feasibility_schemes_aggregate_over_folds():
+def test_offpath_dead_end_and_feasibility_figures_aggregate_over_folds():
     folds = [
-        {5: _fold(1.0, 0.9, 1.0, offpath=0.6, best=0.9)},
-        {5: _fold(1.0, 0.9, 1.0, offpath=0.8, best=0.7)},
+        {5: _fold(1.0, 0.9, 1.0, offpath=0.6, best=0.9, dead_end=0.02)},
+        {5: _fold(1.0, 0.7, 1.0, offpath=0.8, best=0.7, dead_end=0.04)},
     ]
     five = aggregate(folds)["5"]
-    assert abs(five.step_auc_offpath.mean - 0.7) < 1e-12
+    assert abs(five.placeable_auc_offpath.mean - 0.7) < 1e-12
+    assert five.dead_end_pass_rate.mean == pytest.approx(0.03) and five.dead_end_steps == 20
+    assert five.dead_end_leakage == Stat(mean=pytest.approx(0.06), std=pytest.approx(0.02))
+    assert five.seq_auc_strict == Stat(mean=pytest.approx(0.7), std=pytest.approx(0.1))
     scheme = five.feasibility.schemes["best_sequence"]
     assert abs(scheme.roc_auc.mean - 0.8) < 1e-12 and scheme.tpr_at_fpr.mean == 0.5
 
@@ -102,10 +112,12 @@ def test_results_files_lead_with_strict_figures(tmp_path):
     assert read_results(tmp_path / "results.json") == results
     assert "run" not in json.loads((tmp_path / "results.json").read_text())  # none given
     md = (tmp_path / "results.md").read_text()
-    assert "| GRACE | Complete Sequence AUC | 0.95 ± 0.01 |" in md
+    assert "| GRACE | Complete Sequence AUC (paper: empty = 1) | 0.95 ± 0.01 |" in md
+    assert "| GRACE | Complete Sequence AUC (strict: empty = 0) | 0.85 ± 0.01 |" in md
     assert "| GRACE | P@1 (strict: empty = 0) | 0.45 ± 0.00 (2/4 empty) |" in md
     assert "| GRACE | P@1 (paper: empty = 1) | 0.95 ± 0.00 (2/4 empty) |" in md
     assert md.index("P@1 (strict") < md.index("Step-by-Step AUC |") < md.index("P@1 (paper")
+    assert md.index("Sequence AUC (strict") < md.index("Dead-end pass") < md.index("AUC (paper")
     assert "| GRACE | P@3 (paper: empty = 1) | – |" in md
     assert "| best_sequence | 0.85 ± 0.05 / 0.50 |" in md  # the feasibility table
     assert md == results_markdown(results)

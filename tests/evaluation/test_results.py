@@ -34,9 +34,13 @@ def test_a_written_file_reads_back_to_the_same_records(tmp_path):
         "assemblies": 2,
         "passes": 14,
         "step_auc": 0.9,
-        "step_auc_offpath": math.nan,
+        "placeable_auc_offpath": math.nan,
         "offpath_states": 0,
+        "dead_end_pass_rate": 0.05,
+        "dead_end_steps": 20,
+        "dead_end_leakage": math.nan,
         "seq_auc": 0.8,
+        "seq_auc_strict": 0.7,
         "p_at_k": {"1": {"value": 1.0, "assemblies": 2, "empty": 1}},
         "p_at_k_strict": {"1": {"value": 0.5, "assemblies": 2, "empty": 1}},
         "no_sequence": 1,
@@ -59,5 +63,25 @@ def test_a_written_file_reads_back_to_the_same_records(tmp_path):
     again = read_results(tmp_path / "results.json")
     assert again == results and to_json(again, RESULTS) == text
     written = json.loads(text)
-    assert "step_auc_offpath" not in written["per_size"]["3"]  # undefined: absent, not zero
+    assert "placeable_auc_offpath" not in written["per_size"]["3"]  # undefined: absent, not 0
+    assert "dead_end_leakage" not in written["per_size"]["3"]
+    assert written["per_size"]["3"]["dead_end_pass_rate"] == {"mean": 0.05, "std": 0.0}
     assert written["run"]["data_seed"] is None  # raw data: null, as before
+
+
+def test_a_file_of_an_older_run_reads_its_offpath_auc_under_the_new_name(tmp_path, size_entry):
+    entry = size_entry(0.9, step_auc_offpath={"mean": 0.8, "std": 0.1})
+    old = {
+        "protocol": "intra",
+        "train_sizes": [5],
+        "test_sizes": [5],
+        "folds": 4,
+        "per_size": {"5": entry},
+        "baselines": {},
+        "seconds": 1.0,
+        "seconds_by_stage": {"load": 0.1, "train": [0.4], "evaluate": [0.5]},
+    }
+    (tmp_path / "results.json").write_text(json.dumps(old))
+    read = read_results(tmp_path / "results.json").per_size["5"]
+    assert read.placeable_auc_offpath.mean == 0.8 and read.seq_auc_strict is None
+    assert "step_auc_offpath" not in to_json(read) and "placeable_auc_offpath" in to_json(read)

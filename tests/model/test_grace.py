@@ -9,7 +9,7 @@ from grace.graphs.dense import DenseAssemblies
 from grace.graphs.encoding import GraphEncoding
 from grace.graphs.pair_geometry import PAIR_GEOMETRY_FEATURES
 from grace.model.grace_fast import fast_logits
-from grace.model.grace_pyg import GraceNet, NetConfig, count_parameters
+from grace.model.grace_pyg import GraceNet, NetConfig, Score, count_parameters
 
 
 def test_paper_parameter_count():
@@ -37,12 +37,21 @@ def test_pair_geometry_adds_a_two_layer_mlp_to_the_readout():
         NetConfig(pair_geometry=4)
 
 
-def test_placeable_head_scores_the_geometric_mean_of_both_outputs():
-    net = GraceNet(NetConfig(placeable_head=True))
-    assert count_parameters(net) == 51_701 + 94 + 1
+def test_placeable_head_scores_both_outputs_by_the_configured_rule():
+    assert count_parameters(GraceNet(NetConfig(placeable_head=True))) == 51_701 + 94 + 1
     logits = torch.tensor([[[2.0, -1.0], [0.0, 3.0]]])
-    expected = torch.sqrt(torch.sigmoid(logits[..., 0]) * torch.sigmoid(logits[..., 1]))
-    torch.testing.assert_close(net.scores(logits), expected)
+    step, place = torch.sigmoid(logits[..., 0]), torch.sigmoid(logits[..., 1])
+    expected = {
+        Score.product: step * place,
+        Score.min: torch.minimum(step, place),
+        Score.geometric: torch.sqrt(step * place),
+        Score.next_step: step,
+    }
+    for rule, scores in expected.items():
+        net = GraceNet(NetConfig(placeable_head=True, score=rule.value))  # a string, as a config
+        assert net.cfg.score is rule
+        torch.testing.assert_close(net.scores(logits), scores)
+    assert NetConfig().score is Score.min  # the default (docs/training.md)
     torch.testing.assert_close(
         GraceNet(NetConfig()).scores(logits[..., 0]), logits[..., 0].sigmoid()
     )

@@ -3,9 +3,11 @@ import functools
 import numpy as np
 import pytest
 import torch
+from hydra.utils import instantiate
 
+from grace.evaluation.step_states import dead_end_steps, label_matrix
 from grace.graphs.encoding import GraphEncoding
-from grace.model.grace_pyg import NetConfig
+from grace.model.grace_pyg import NetConfig, Score
 from grace.model.impls import FastImpl, PygImpl
 from grace.model.module import GraceModule
 from grace.model.scoring import make_scorer, part_embeddings
@@ -49,3 +51,36 @@ def test_randomised_test_encoding_is_repeatable(samples, graph):
     plain = module()
     plain.load_state_dict(m.state_dict())
     assert not np.allclose(make_scorer(plain)(sample.assembly, sample.truth.states), a)
+
+
+@pytest.mark.parametrize("rule", list(Score))
+def test_the_planner_takes_no_dead_end_step_its_next_step_output_keeps_below_lambda(
+    cfg_factory, samples, rule
+):
+    """The documented property of the default score (docs/training.md), on the feasible steps
+    into dead ends from the true orders' states of assemblies the model never saw: the planner's
+    score never exceeds the next-step output, so a step that output scores at its dead-end
+    target (0.4) stays below λ = 0.5, however sure the physical output is (here made sure by
+    its bias). The geometric mean breaks it: 0.4 becomes sqrt(0.4 · 0.98) ≈ 0.63."""
+    torch.manual_seed(0)
+    m = instantiate(cfg_factory(f"model.net.score={rule.value}").model)
+    with torch.no_grad():
+        m.net.head.bias[1] += 4.0  # a confident physical output
+    scorer = make_scorer(m)
+    excess, at_target = [], []
+    for sample in samples:
+        states, masks = dead_end_steps(sample.truth)
+        if not states.size:  # an infeasible assembly: no true order
+            continue
+        steps = label_matrix(masks, sample.size)
+        with torch.no_grad():
+            logits = m.impl.assembly_logits(m.net, scorer._prepared(sample.assembly), states)
+        step = torch.sigmoid(logits[..., 0]).numpy()
+        excess.append((scorer(sample.assembly, states) - step)[steps])
+        logits[..., 0] = torch.logit(torch.tensor(0.4))
+        at_target.append(m.net.scores(logits).numpy()[steps])
+    excess, at_target = np.concatenate(excess), np.concatenate(at_target)
+    assert excess.size >= 5
+    vetoes = rule is not Score.geometric
+    assert (excess <= 1e-6).all() == vetoes
+    assert (at_target < 0.5).all() == vetoes

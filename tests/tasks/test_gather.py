@@ -37,7 +37,7 @@ def test_gather_builds_table2_and_table3(tmp_path, results_run, size_entry):
     assert len(tables["runs"]) == 5
     assert "intra A3 | intra A4 | intra A5 | many_to_one A3 | many_to_one A4 |" in md
     assert "| GRACE | A4 | 1.00 ± 0.00 | 1.00 ± 0.00 | 0.50 ± 0.01 | 0.50 ± 0.01 |" in md
-    assert "| random | Complete Sequence AUC |" in md
+    assert "| random | Complete Sequence AUC (paper: empty = 1) |" in md
 
 
 def test_gather_puts_strict_figures_beside_the_papers(tmp_path, results_run, size_entry):
@@ -46,8 +46,8 @@ def test_gather_puts_strict_figures_beside_the_papers(tmp_path, results_run, siz
     results_run(tmp_path / "runs" / "0", "one_to_many", [5], [3], entry)
     results_run(tmp_path / "runs" / "1", "intra", [5], [3], entry)
     _, md = _gather(tmp_path / "runs", tmp_path / "out")
-    assert "| Variant | Training set | step A3 | seq A3 | strict P@1 A3 |" in md
-    assert "| GRACE | A5 | 0.90 ± 0.00 | 0.80 ± 0.01 | 0.20 ± 0.00 (222/277 empty) |" in md
+    assert "| Variant | Training set | step A3 | seq A3 | strict seq A3 | strict P@1 A3 |" in md
+    assert "| GRACE | A5 | 0.90 ± 0.00 | 0.80 ± 0.01 | – | 0.20 ± 0.00 (222/277 empty) |" in md
     assert "| GRACE | P@1 (strict: empty = 0) | 0.20 ± 0.00 (222/277 empty) |" in md
     assert md.index("P@1 (strict") < md.index("| GRACE | P@1 (paper")
 

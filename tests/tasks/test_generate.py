@@ -23,6 +23,7 @@ SIZE_KEYS = {
     "multi_order_fraction": float, "infeasible_causes": dict, "robot_pruned_fraction": float,
     "infeasible_mechanisms": dict, "rule_decisive_fraction": dict,
     "nonlocal_block_fraction": float, "states": int, "naive_checks": int, "checks": int,
+    "exact_copies": int, "renumbered_copies": int,
 }  # fmt: skip
 
 

@@ -175,3 +175,12 @@ def test_a_value_the_schema_refuses_is_named(cfg_factory):
     cfg = cfg_factory("task=tune", "tune.space.hidden.low=32.5")  # a float for an int key
     with pytest.raises(UserError, match=re.escape("model.net.hidden=")):
         trial_config(cfg, suggest(optuna.create_study().ask(), parse_space(cfg.tune.space, cfg)))
+
+
+def test_tune_reads_the_selection_data_set_and_experiments_the_evaluation_one(cfg_factory):
+    """Defaults are chosen on the selection data set (seed 1), figures reported on the
+    evaluation data set (seed 0), whatever the training seed (docs/training.md)."""
+    assert cfg_factory().dataset.seed == 0 and cfg_factory("seed=3").dataset.seed == 0
+    assert cfg_factory("experiment=selection").dataset.seed == 1
+    assert cfg_factory("task=tune").dataset.seed == 1
+    assert cfg_factory("task=tune", "dataset.seed=0").dataset.seed == 0
