@@ -1,0 +1,197 @@
+"""What a verifying planner asks the simulator: one step check, behind a small interface.
+
+A *simulator step check* is one verdict on one (state, part) pair: can `part` be placed once the
+parts of bitmask `state` are placed (docs/planning.md)? It is the unit every planner here is
+charged in, and the ground truth's brute force decides one per reachable (state, unplaced part)
+pair (`GroundTruth.checks`). A `StepOracle` answers checks, caches them and counts the distinct
+ones; the search (grace/planning/search.py) sees only this interface, never the robot cell.
+
+Besides the verdict, a refused step says *what* keeps the part out when that is not fixation: a
+set of placed parts that blocks every option of the part. Obstacles only accumulate (a placed
+part is never removed, and an option is free in a state iff its blocker masks miss it,
+docs/world.md, "How the labels are computed"), so the part stays blocked in every state that
+contains that set: the planner may drop all of them without asking again.
+
+`SimulatorSteps` answers from the simulator: the first check of a part runs that part's cell
+queries (MuJoCo, `RobotCell.placement_options`, a few to tens of milliseconds) and reads each
+option's blockers off its verdict with every other part placed (`grace.simulation.explain`);
+every later check of that part is bitmask work plus the fixation rule.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from grace.domain.assembly import Assembly, full_mask
+from grace.domain.orders import GroundTruth
+from grace.simulation.check import OrderChecker
+from grace.simulation.explain import candidate_blocks
+from grace.simulation.simulator import Simulator
+
+
+@dataclass(frozen=True)
+class StepCheck:
+    """The verdict of one (state, part) step.
+
+    `blocked_by` (only when refused, and not by fixation alone): placed parts (a bitmask within
+    the state) that block every option of the part; the part cannot be placed in any state that
+    contains them. None when the step is feasible or only fixation refuses it.
+    """
+
+    feasible: bool
+    blocked_by: int | None = None
+
+
+class StepOracle(Protocol):
+    """Answers step checks of one assembly; `checks` counts the distinct ones asked so far."""
+
+    n_parts: int
+
+    @property
+    def checks(self) -> int: ...
+
+    def check(self, state: int, part: int) -> StepCheck: ...
+
+
+class CachedSteps(ABC):
+    """A `StepOracle` that decides each (state, part) once: a repeated question is free."""
+
+    def __init__(self, n_parts: int) -> None:
+        self.n_parts = n_parts
+        self._cache: dict[tuple[int, int], StepCheck] = {}
+
+    @property
+    def checks(self) -> int:
+        return len(self._cache)
+
+    def check(self, state: int, part: int) -> StepCheck:
+        if state >> part & 1:
+            raise ValueError(f"part {part} is already placed in state {state:#x}")
+        key = (state, part)
+        found = self._cache.get(key)
+        if found is None:
+            found = self._cache[key] = self.decide(state, part)
+        return found
+
+    @abstractmethod
+    def decide(self, state: int, part: int) -> StepCheck:
+        """The verdict, computed (called once per distinct pair)."""
+
+
+def hitting_set(masks: list[int], state: int) -> int:
+    """A small set of parts of `state` meeting every mask (each must meet `state`): greedily the
+    part that meets the most masks not met yet. Any hitting set is a correct `blocked_by`; a
+    smaller one rules out more states."""
+    left = [m & state for m in masks]
+    chosen = 0
+    while left:
+        union = 0
+        for m in left:
+            union |= m
+        best, best_count = 0, -1
+        bits = union
+        while bits:
+            bit = bits & -bits
+            bits ^= bit
+            count = sum(1 for m in left if m & bit)
+            if count > best_count:
+                best, best_count = bit, count
+        chosen |= best
+        left = [m for m in left if not m & best]
+    return chosen
+
+
+def minimal_masks(masks: list[int]) -> list[int]:
+    """`masks` without duplicates and supersets: whether some mask misses a state, and which
+    parts meet them all, depend on the minimal ones only."""
+    out: list[int] = []
+    for m in sorted(set(masks), key=lambda m: (m.bit_count(), m)):
+        if not any(o & m == o for o in out):
+            out.append(m)
+    return out
+
+
+class BlockerSteps(CachedSteps):
+    """Checks from per-part blocker masks and a fixation rule (the simulator's structure,
+    docs/world.md): `part` can be placed in `state` iff fixation holds and one of its masks
+    misses `state`. Subclasses provide the masks (lazily) and fixation."""
+
+    def __init__(self, n_parts: int) -> None:
+        super().__init__(n_parts)
+        self._masks: dict[int, list[int]] = {}
+
+    def masks(self, part: int) -> list[int]:
+        """The part's minimal blocker masks, one per usable option class (computed once)."""
+        if part not in self._masks:
+            self._masks[part] = minimal_masks(self.part_masks(part))
+        return self._masks[part]
+
+    @abstractmethod
+    def part_masks(self, part: int) -> list[int]:
+        """Blocker masks of the part's usable options (never-usable options left out)."""
+
+    @abstractmethod
+    def fixed(self, states: np.ndarray, part: int) -> np.ndarray:
+        """Whether fixation lets `part` go in each of the int64 `states` (a scalar works too)."""
+
+    def decide(self, state: int, part: int) -> StepCheck:
+        masks = self.masks(part)
+        if any(not m & state for m in masks):
+            return StepCheck(bool(self.fixed(np.int64(state), part)))
+        return StepCheck(False, hitting_set(masks, state))
+
+    def placeable(self, states: np.ndarray, part: int) -> np.ndarray:
+        """The verdicts of `part` in many states at once, uncounted and uncached (the brute
+        force's vectorised form, `brute_force`)."""
+        states = np.asarray(states, dtype=np.int64)
+        masks = np.array(self.masks(part), dtype=np.int64)
+        if not masks.size:
+            return np.zeros(states.shape, dtype=bool)
+        free = ((states[:, None] & masks[None, :]) == 0).any(axis=1)
+        return free & self.fixed(states, part)
+
+
+class SimulatorSteps(BlockerSteps):
+    """Step checks of one assembly by the simulator (the robot cell queried lazily per part).
+
+    `checker` is the simulator's `OrderChecker` of the assembly: the same option cache gives
+    verdicts with reasons (`checker.verdict`) and the cell's pose at a step (`checker.pose`)
+    for plan.json and the recording.
+    """
+
+    def __init__(self, simulator: Simulator, assembly: Assembly) -> None:
+        super().__init__(assembly.n_parts)
+        self.checker = OrderChecker(simulator, assembly)
+        self._others = full_mask(assembly.n_parts)
+
+    def part_masks(self, part: int) -> list[int]:
+        checker = self.checker
+        others = self._others & ~(1 << part)
+        out = []
+        for option in checker.options(part):
+            blocks = candidate_blocks(
+                option, checker.motions[part][option.motion], others, checker.simulator.rules
+            )
+            if any(b.part is None for b in blocks):
+                continue  # out of reach, or the arm hits the table or itself: in every state
+            mask = 0
+            for block in blocks:
+                mask |= 1 << block.part
+            out.append(mask)
+        return out
+
+    def fixed(self, states: np.ndarray, part: int) -> np.ndarray:
+        if "fixation" not in self.checker.simulator.rules:
+            return np.ones(np.shape(states), dtype=bool)
+        return self.checker.fixation.holds(states, part)
+
+
+def brute_force(oracle: BlockerSteps) -> GroundTruth:
+    """Every order, by deciding every reachable (state, unplaced part) pair: the ground truth's
+    enumeration (`GroundTruth.explore_many`) on this oracle's masks; its `checks` is the count a
+    verifying planner is compared with."""
+    return GroundTruth.explore_many(oracle.n_parts, oracle.placeable, naive_checks=False)

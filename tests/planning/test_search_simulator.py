@@ -1,0 +1,147 @@
+"""Verified search against the real simulator: its step checks agree with the ground truth and
+with `Simulator.explain`, a refused part stays refused in every state holding its blockers
+(obstacles only accumulate), and every order it returns replays in the uncached MuJoCo cell."""
+
+import itertools
+
+import numpy as np
+import pytest
+from hydra import compose, initialize_config_dir
+from hydra.core.global_hydra import GlobalHydra
+from hydra.utils import instantiate
+from planning_fakes import fixed_scores
+
+from grace import CONF_DIR
+from grace.domain.assembly import Assembly, Part, PartType, planar_pose
+from grace.evaluation.baselines import random_scorer
+from grace.planning.search import Frontier, Outcome, VerifiedSearch
+from grace.planning.step_checks import SimulatorSteps, brute_force
+from grace.planning.topk import lazy_scores
+from grace.tasks.schemas import register_schemas
+
+
+@pytest.fixture(scope="module")
+def sim():
+    register_schemas(light=True)  # the simulator group only: no torch-side schemas needed
+    GlobalHydra.instance().clear()
+    with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
+        cfg = compose(config_name="config")
+    GlobalHydra.instance().clear()
+    return instantiate(cfg.simulator)
+
+
+@pytest.fixture(scope="module")
+def generated(sim):
+    """Seeded A3–A6 frames with their ground truth, infeasible ones among them."""
+    rng = np.random.default_rng(7)
+    return [sim.label(sim.generate(n, rng)) for n in (3, 4, 5, 5, 6, 6, 6)]
+
+
+def profile(length: int, x: float, y: float, along_x: bool = False) -> Part:
+    kind = PartType.PROFILE_300 if length == 300 else PartType.PROFILE_200
+    return Part(f"p{x:g}_{y:g}", kind, planar_pose(x, y, 1 if along_x else 0))
+
+
+RECTANGLE = Assembly(
+    (
+        profile(300, 0, 0, True),
+        profile(300, 0, 240, True),
+        profile(200, -130, 120),
+        profile(200, 130, 120),
+    ),
+    name="rectangle",
+)
+"""A closed rectangle: the last part cannot slide in, its own frame is in the way."""
+
+RAILS = Assembly(
+    (profile(300, 0, 0, True), profile(200, -24, 120), profile(200, 24, 120)), name="rails"
+)
+"""Two stems 8 mm apart: no room for a finger beside whichever comes first."""
+
+DEAD_START = Assembly(
+    (
+        Part("a", PartType.PROFILE_300, planar_pose(38, 20)),
+        Part("b", PartType.PROFILE_300, planar_pose(100, 20)),
+        Part("c", PartType.PROFILE_300, planar_pose(-20, -150, 1)),
+        Part("d", PartType.PROFILE_200, planar_pose(150, -70)),
+    ),
+    name="dead_start",
+)
+"""Placing part 1 first is possible, but no order goes on from there."""
+
+
+def test_step_checks_agree_with_the_ground_truth_and_explain(sim, generated):
+    for sample in generated:
+        truth, oracle = sample.truth, SimulatorSteps(sim, sample.assembly)
+        n = truth.n_parts
+        for state, placeable in zip(truth.states.tolist(), truth.placeable.tolist(), strict=True):
+            for part in range(n):
+                if state >> part & 1:
+                    continue
+                check = oracle.check(state, part)
+                assert check.feasible == bool(placeable >> part & 1)
+                assert check.feasible == oracle.checker.verdict(state, part).feasible
+                if check.blocked_by is None:
+                    continue
+                # the blockers are placed, and the part stays out wherever they are
+                assert check.blocked_by & state == check.blocked_by and not check.feasible
+                later = (truth.states & check.blocked_by) == check.blocked_by
+                later &= (truth.states >> part & 1) == 0
+                assert not (truth.placeable[later] >> part & 1).any()
+        assert oracle.checks == truth.checks  # every reachable (state, unplaced part) once
+        forced = brute_force(SimulatorSteps(sim, sample.assembly))
+        assert forced.same_orders(truth) and forced.checks == truth.checks
+
+
+@pytest.mark.parametrize("frontier", list(Frontier))
+@pytest.mark.parametrize("learn", [True, False])
+def test_exhaustive_search_verifies_exactly_the_ground_truth_orders(
+    sim, generated, frontier, learn
+):
+    assert {s.truth.feasible for s in generated} == {True, False}
+    for sample in generated:
+        config = VerifiedSearch(k=None, frontier=frontier, learn_blocks=learn)
+        scores = lazy_scores(random_scorer(1), sample.assembly)
+        result = config.search(scores, SimulatorSteps(sim, sample.assembly))
+        assert set(result.verified.orders()) == set(sample.truth.orders())
+        assert result.verified.same_orders(sample.truth)
+        expected = Outcome.verified if sample.truth.feasible else Outcome.infeasible
+        assert result.outcome == expected and result.exhausted
+
+
+@pytest.mark.parametrize("assembly", [RECTANGLE, RAILS], ids=lambda a: a.name)
+def test_hand_built_infeasible_frames_are_proved_infeasible(sim, assembly):
+    truth = sim.label(assembly).truth
+    assert not truth.feasible
+    for frontier in Frontier:
+        result = VerifiedSearch(frontier=frontier).search(
+            fixed_scores({}, assembly.n_parts), SimulatorSteps(sim, assembly)
+        )
+        assert result.outcome == Outcome.infeasible and not result.orders
+        assert result.checks <= truth.checks
+
+
+def test_a_model_wrong_at_step_1_still_gets_an_order_the_cell_executes(sim):
+    truth = sim.label(DEAD_START).truth
+    assert truth.placeable[0] >> 1 & 1 and not truth.completable[0] >> 1 & 1  # as built
+    wrong = fixed_scores({0: [0.2, 0.95, 0.1, 0.1]}, 4)  # it loves the dead first step
+    for frontier, learn in itertools.product(Frontier, (True, False)):
+        oracle = SimulatorSteps(sim, DEAD_START)
+        result = VerifiedSearch(frontier=frontier, learn_blocks=learn).search(wrong, oracle)
+        assert result.outcome == Outcome.verified
+        order = result.orders[0].sequence
+        assert order in set(truth.orders()) and order[0] != 1
+        assert sim.replay(DEAD_START, order) is None  # the uncached MuJoCo reference
+        refused = [e for e in result.events if e.kind == "refused"]
+        assert refused and all(oracle.checker.verdict(e.state, e.part).rule for e in refused)
+
+
+def test_returned_orders_replay_in_the_uncached_cell(sim):
+    rng = np.random.default_rng(11)
+    for n in (5, 6, 7):
+        assembly = sim.generate(n, rng)
+        result = VerifiedSearch(k=3).search(
+            lazy_scores(random_scorer(n), assembly), SimulatorSteps(sim, assembly)
+        )
+        for ranked in result.orders:
+            assert sim.replay(assembly, ranked.sequence) is None
