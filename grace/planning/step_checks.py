@@ -12,10 +12,8 @@ part is never removed, and an option is free in a state iff its blocker masks mi
 docs/world.md, "How the labels are computed"), so the part stays blocked in every state that
 contains that set: the planner may drop all of them without asking again.
 
-`SimulatorSteps` answers from the simulator: the first check of a part runs that part's cell
-queries (MuJoCo, `RobotCell.placement_options`, a few to tens of milliseconds) and reads each
-option's blockers off its verdict with every other part placed (`grace.simulation.explain`);
-every later check of that part is bitmask work plus the fixation rule.
+`BlockerSteps` decides from per-part blocker masks and a fixation rule, the structure of the
+simulator's checks; `grace.planning.cell_steps.SimulatorSteps` gets both from the simulator.
 """
 
 from __future__ import annotations
@@ -26,11 +24,7 @@ from typing import Protocol
 
 import numpy as np
 
-from grace.domain.assembly import Assembly, full_mask
 from grace.domain.orders import GroundTruth
-from grace.simulation.check import OrderChecker
-from grace.simulation.explain import candidate_blocks
-from grace.simulation.simulator import Simulator
 
 
 @dataclass(frozen=True)
@@ -153,41 +147,6 @@ class BlockerSteps(CachedSteps):
             return np.zeros(states.shape, dtype=bool)
         free = ((states[:, None] & masks[None, :]) == 0).any(axis=1)
         return free & self.fixed(states, part)
-
-
-class SimulatorSteps(BlockerSteps):
-    """Step checks of one assembly by the simulator (the robot cell queried lazily per part).
-
-    `checker` is the simulator's `OrderChecker` of the assembly: the same option cache gives
-    verdicts with reasons (`checker.verdict`) and the cell's pose at a step (`checker.pose`)
-    for plan.json and the recording.
-    """
-
-    def __init__(self, simulator: Simulator, assembly: Assembly) -> None:
-        super().__init__(assembly.n_parts)
-        self.checker = OrderChecker(simulator, assembly)
-        self._others = full_mask(assembly.n_parts)
-
-    def part_masks(self, part: int) -> list[int]:
-        checker = self.checker
-        others = self._others & ~(1 << part)
-        out = []
-        for option in checker.options(part):
-            blocks = candidate_blocks(
-                option, checker.motions[part][option.motion], others, checker.simulator.rules
-            )
-            if any(b.part is None for b in blocks):
-                continue  # out of reach, or the arm hits the table or itself: in every state
-            mask = 0
-            for block in blocks:
-                mask |= 1 << block.part
-            out.append(mask)
-        return out
-
-    def fixed(self, states: np.ndarray, part: int) -> np.ndarray:
-        if "fixation" not in self.checker.simulator.rules:
-            return np.ones(np.shape(states), dtype=bool)
-        return self.checker.fixation.holds(states, part)
 
 
 def brute_force(oracle: BlockerSteps) -> GroundTruth:

@@ -174,6 +174,7 @@ class RootConfig:
     logger: Any = None
     protocol: Any = None
     classifier: Any = None
+    planner: Any = None
     scale: Any = None
     tune: Any = None
 
@@ -201,6 +202,8 @@ def heavy_schemas() -> dict[str, type]:
     from grace.graphs.encoding import GraphEncoding
     from grace.model.grace_pyg import NetConfig
     from grace.model.module import GraceModule
+    from grace.planning.search import VerifiedSearch
+    from grace.planning.topk import TopKListing
     from grace.tasks.bench import BenchSettings
     from grace.tasks.experiment import ExperimentSettings
     from grace.tasks.feasibility import FeasibilitySettings
@@ -235,6 +238,8 @@ def heavy_schemas() -> dict[str, type]:
         "task/replay": ReplaySettings,
         "task/tune": TuneSettings,
         "tune": TuneConfig,
+        "planner/verified": schema(VerifiedSearch),
+        "planner/topk": schema(TopKListing),
     }
 
 

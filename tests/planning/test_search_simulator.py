@@ -14,8 +14,9 @@ from planning_fakes import fixed_scores
 from grace import CONF_DIR
 from grace.domain.assembly import Assembly, Part, PartType, planar_pose
 from grace.evaluation.baselines import random_scorer
+from grace.planning.cell_steps import SimulatorSteps
 from grace.planning.search import Frontier, Outcome, VerifiedSearch
-from grace.planning.step_checks import SimulatorSteps, brute_force
+from grace.planning.step_checks import brute_force
 from grace.planning.topk import lazy_scores
 from grace.tasks.schemas import register_schemas
 
