@@ -211,6 +211,7 @@ def heavy_schemas() -> dict[str, type]:
     from grace.tasks.generate import GenerateSettings
     from grace.tasks.plan import PlanSettings
     from grace.tasks.replay import ReplaySettings
+    from grace.tasks.search_bench import SearchBenchSettings
     from grace.tasks.train import TrainSettings
     from grace.tasks.tune import TuneSettings
     from grace.tasks.tune_space import TuneConfig
@@ -236,6 +237,7 @@ def heavy_schemas() -> dict[str, type]:
         "task/feasibility": FeasibilitySettings,
         "task/plan": PlanSettings,
         "task/replay": ReplaySettings,
+        "task/search_bench": SearchBenchSettings,
         "task/tune": TuneSettings,
         "tune": TuneConfig,
         "planner/verified": schema(VerifiedSearch),
