@@ -27,7 +27,7 @@ from grace.domain.assembly import Assembly
 from grace.planning.search import Outcome, SearchResult, VerifiedSearch
 from grace.planning.sequences import Scorer
 from grace.planning.step_checks import BlockerSteps, brute_force
-from grace.planning.topk import lazy_scores, rank_sequences
+from grace.planning.topk import rank_sequences
 
 SUCCESS_LEVELS = (0.5, 0.9, 0.99)
 """Success rates at which the checks each planner needs are compared."""
@@ -49,12 +49,10 @@ class PlannerRun:
     expanded: int = 0
 
     @classmethod
-    def of(cls, result: SearchResult, setup: float) -> PlannerRun:
-        """From a search; `setup` seconds (the oracle's construction) are charged too."""
-        first = None if result.first_seconds is None else setup + result.first_seconds
+    def of(cls, result: SearchResult) -> PlannerRun:
         return cls(
-            str(result.outcome), result.checks, setup + result.seconds, result.first_checks,
-            first, result.expanded,
+            str(result.outcome), result.checks, result.seconds, result.first_checks,
+            result.first_seconds, result.expanded,
         )  # fmt: skip
 
 
@@ -69,7 +67,7 @@ def search_planner(search: VerifiedSearch, scorer: Scorer) -> Planner:
         clear = getattr(scorer, "clear", None)
         if clear is not None:
             clear()  # a cold start: the per-assembly embedding is part of the cost
-        return PlannerRun.of(search.search(lazy_scores(scorer, assembly), oracle), 0.0)
+        return PlannerRun.of(search.plan(scorer, assembly, oracle))
 
     return run
 

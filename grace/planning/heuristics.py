@@ -55,6 +55,8 @@ class ContactHeuristic:
         near_unplaced = touch.sum(axis=0) - near_placed
         empty = (states == 0)[:, None]
         fixed = np.where(profiles, empty | (near_placed > 0), ~empty & (near_profile > 0))
-        raw = self.placed_weight * near_placed + self.unplaced_weight * near_unplaced
-        top = (self.placed_weight + self.unplaced_weight) * max(n - 1, 1) + 1.0
-        return np.where(placed > 0, 0.0, (fixed + raw / top) / 2.0)
+        weights = np.array([self.placed_weight, self.unplaced_weight])
+        raw = weights[0] * near_placed + weights[1] * near_unplaced
+        low = np.minimum(weights, 0).sum() * (n - 1)  # the range raw can take
+        high = np.maximum(weights, 0).sum() * (n - 1)
+        return np.where(placed > 0, 0.0, (fixed + (raw - low) / (high - low + 1.0)) / 2.0)

@@ -6,11 +6,12 @@ charged in, and the ground truth's brute force decides one per reachable (state,
 pair (`GroundTruth.checks`). A `StepOracle` answers checks, caches them and counts the distinct
 ones; the search (grace/planning/search.py) sees only this interface, never the robot cell.
 
-Besides the verdict, a refused step says *what* keeps the part out when that is not fixation: a
-set of placed parts that blocks every option of the part. Obstacles only accumulate (a placed
+Besides the verdict, a refused step says *what* keeps the part out when that is not fixation:
+for each of its options, the placed parts that block it. Obstacles only accumulate (a placed
 part is never removed, and an option is free in a state iff its blocker masks miss it,
 docs/world.md, "How the labels are computed"), so the part stays blocked in every state that
-contains that set: the planner may drop all of them without asking again.
+holds a set of parts meeting all of them: the planner may drop all those states without asking
+again.
 
 `BlockerSteps` decides from per-part blocker masks and a fixation rule, the structure of the
 simulator's checks; `grace.planning.cell_steps.SimulatorSteps` gets both from the simulator.
@@ -31,13 +32,15 @@ from grace.domain.orders import GroundTruth
 class StepCheck:
     """The verdict of one (state, part) step.
 
-    `blocked_by` (only when refused, and not by fixation alone): placed parts (a bitmask within
-    the state) that block every option of the part; the part cannot be placed in any state that
-    contains them. None when the step is feasible or only fixation refuses it.
+    `conflicts` (only when refused with every option of the part blocked by placed parts, not
+    by fixation alone): per option (class), the placed parts that block it, as bitmasks within
+    the state. Obstacles only accumulate, so the part cannot be placed in any state that meets
+    every one of them; `blocking_set` picks a set of placed parts that does. None when the step
+    is feasible or only fixation refuses it.
     """
 
     feasible: bool
-    blocked_by: int | None = None
+    conflicts: tuple[int, ...] | None = None
 
 
 class StepOracle(Protocol):
@@ -76,26 +79,21 @@ class CachedSteps(ABC):
         """The verdict, computed (called once per distinct pair)."""
 
 
-def hitting_set(masks: list[int], state: int) -> int:
-    """A small set of parts of `state` meeting every mask (each must meet `state`): greedily the
-    part that meets the most masks not met yet. Any hitting set is a correct `blocked_by`; a
-    smaller one rules out more states."""
-    left = [m & state for m in masks]
+def blocking_set(conflicts: tuple[int, ...], order: list[int]) -> int:
+    """Placed parts meeting every conflict, taken as early in `order` (the parts in the order
+    they were placed) as possible: the state stays dead back to where the latest of them was
+    placed, so the earlier they are, the further a search may jump back (conflict-directed
+    backjumping). Each conflict contributes its earliest part unless an earlier pick meets it;
+    conflicts whose earliest part came latest go first, so one late part can meet many."""
+    position = {part: i for i, part in enumerate(order)}
+
+    def earliest(conflict: int) -> int:
+        return min((p for p in position if conflict >> p & 1), key=position.__getitem__)
+
     chosen = 0
-    while left:
-        union = 0
-        for m in left:
-            union |= m
-        best, best_count = 0, -1
-        bits = union
-        while bits:
-            bit = bits & -bits
-            bits ^= bit
-            count = sum(1 for m in left if m & bit)
-            if count > best_count:
-                best, best_count = bit, count
-        chosen |= best
-        left = [m for m in left if not m & best]
+    for conflict in sorted(conflicts, key=lambda c: -position[earliest(c)]):
+        if not conflict & chosen:
+            chosen |= 1 << earliest(conflict)
     return chosen
 
 
@@ -136,7 +134,7 @@ class BlockerSteps(CachedSteps):
         masks = self.masks(part)
         if any(not m & state for m in masks):
             return StepCheck(bool(self.fixed(np.int64(state), part)))
-        return StepCheck(False, hitting_set(masks, state))
+        return StepCheck(False, tuple(minimal_masks([m & state for m in masks])))
 
     def placeable(self, states: np.ndarray, part: int) -> np.ndarray:
         """The verdicts of `part` in many states at once, uncounted and uncached (the brute

@@ -75,7 +75,7 @@ def verified_json(
     refused = [s for s in record.steps if s.kind == "refused"]
     return {
         **sources,
-        "planner": {**asdict(planner), "frontier": str(planner.frontier)},
+        "planner": asdict(planner),  # StrEnum values serialise as their names
         "name": assembly.name,
         "n_parts": assembly.n_parts,
         "outcome": record.outcome,
@@ -123,10 +123,9 @@ def plan_verified(
     gc.freeze()
     start = time.perf_counter()
     oracle = SimulatorSteps(simulator, assembly)
-    scores = lazy_scores(scorer, assembly)
-    result = planner.search(scores, oracle)
+    result = planner.plan(scorer, assembly, oracle)
     seconds = time.perf_counter() - start
-    record = search_record("plan", result, scores, oracle, truth)
+    record = search_record("plan", result, lazy_scores(scorer, assembly), oracle, truth)
     timing = {
         "seconds": seconds,  # the search: scoring, step checks, the cell queries (model loaded)
         "first_seconds": result.first_seconds,

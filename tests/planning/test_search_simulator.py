@@ -12,12 +12,12 @@ from hydra.utils import instantiate
 from planning_fakes import fixed_scores
 
 from grace import CONF_DIR
-from grace.domain.assembly import Assembly, Part, PartType, planar_pose
+from grace.domain.assembly import Assembly, Part, PartType, mask_to_parts, planar_pose
 from grace.evaluation.baselines import random_scorer
 from grace.planning.cell_steps import SimulatorSteps
-from grace.planning.search import Frontier, Outcome, VerifiedSearch
+from grace.planning.fixation_prior import FixationPrior
+from grace.planning.search import Direction, Frontier, Outcome, VerifiedSearch
 from grace.planning.step_checks import brute_force
-from grace.planning.topk import lazy_scores
 from grace.tasks.schemas import register_schemas
 
 
@@ -82,28 +82,31 @@ def test_step_checks_agree_with_the_ground_truth_and_explain(sim, generated):
                 check = oracle.check(state, part)
                 assert check.feasible == bool(placeable >> part & 1)
                 assert check.feasible == oracle.checker.verdict(state, part).feasible
-                if check.blocked_by is None:
+                if check.conflicts is None:
                     continue
-                # the blockers are placed, and the part stays out wherever they are
-                assert check.blocked_by & state == check.blocked_by and not check.feasible
-                later = (truth.states & check.blocked_by) == check.blocked_by
-                later &= (truth.states >> part & 1) == 0
+                # the blockers are placed, and the part stays out of every state meeting them
+                assert not check.feasible and check.conflicts
+                assert all(c and c & state == c for c in check.conflicts)
+                later = (truth.states >> part & 1) == 0
+                for conflict in check.conflicts:
+                    later &= (truth.states & conflict) != 0
                 assert not (truth.placeable[later] >> part & 1).any()
         assert oracle.checks == truth.checks  # every reachable (state, unplaced part) once
         forced = brute_force(SimulatorSteps(sim, sample.assembly))
         assert forced.same_orders(truth) and forced.checks == truth.checks
 
 
+@pytest.mark.parametrize("direction", list(Direction))
 @pytest.mark.parametrize("frontier", list(Frontier))
 @pytest.mark.parametrize("learn", [True, False])
 def test_exhaustive_search_verifies_exactly_the_ground_truth_orders(
-    sim, generated, frontier, learn
+    sim, generated, direction, frontier, learn
 ):
     assert {s.truth.feasible for s in generated} == {True, False}
     for sample in generated:
-        config = VerifiedSearch(k=None, frontier=frontier, learn_blocks=learn)
-        scores = lazy_scores(random_scorer(1), sample.assembly)
-        result = config.search(scores, SimulatorSteps(sim, sample.assembly))
+        config = VerifiedSearch(k=None, direction=direction, frontier=frontier, learn_blocks=learn)
+        oracle = SimulatorSteps(sim, sample.assembly)
+        result = config.plan(random_scorer(1), sample.assembly, oracle)
         assert set(result.verified.orders()) == set(sample.truth.orders())
         assert result.verified.same_orders(sample.truth)
         expected = Outcome.verified if sample.truth.feasible else Outcome.infeasible
@@ -114,8 +117,8 @@ def test_exhaustive_search_verifies_exactly_the_ground_truth_orders(
 def test_hand_built_infeasible_frames_are_proved_infeasible(sim, assembly):
     truth = sim.label(assembly).truth
     assert not truth.feasible
-    for frontier in Frontier:
-        result = VerifiedSearch(frontier=frontier).search(
+    for direction, frontier in itertools.product(Direction, Frontier):
+        result = VerifiedSearch(direction=direction, frontier=frontier).search(
             fixed_scores({}, assembly.n_parts), SimulatorSteps(sim, assembly)
         )
         assert result.outcome == Outcome.infeasible and not result.orders
@@ -125,24 +128,50 @@ def test_hand_built_infeasible_frames_are_proved_infeasible(sim, assembly):
 def test_a_model_wrong_at_step_1_still_gets_an_order_the_cell_executes(sim):
     truth = sim.label(DEAD_START).truth
     assert truth.placeable[0] >> 1 & 1 and not truth.completable[0] >> 1 & 1  # as built
-    wrong = fixed_scores({0: [0.2, 0.95, 0.1, 0.1]}, 4)  # it loves the dead first step
-    for frontier, learn in itertools.product(Frontier, (True, False)):
+
+    def wrong(assembly, states):  # it loves the dead first step
+        rows = np.full((len(states), 4), 0.5)
+        rows[np.asarray(states) == 0] = [0.2, 0.95, 0.1, 0.1]
+        return rows
+
+    for direction, frontier, learn in itertools.product(Direction, Frontier, (True, False)):
         oracle = SimulatorSteps(sim, DEAD_START)
-        result = VerifiedSearch(frontier=frontier, learn_blocks=learn).search(wrong, oracle)
+        search = VerifiedSearch(direction=direction, frontier=frontier, learn_blocks=learn)
+        result = search.plan(wrong, DEAD_START, oracle)
         assert result.outcome == Outcome.verified
         order = result.orders[0].sequence
         assert order in set(truth.orders()) and order[0] != 1
         assert sim.replay(DEAD_START, order) is None  # the uncached MuJoCo reference
         refused = [e for e in result.events if e.kind == "refused"]
-        assert refused and all(oracle.checker.verdict(e.state, e.part).rule for e in refused)
+        assert all(oracle.checker.verdict(e.state, e.part).rule for e in refused)
+        if direction == Direction.forward:  # it took the dead step and was refused below it
+            assert result.events[0].part == 1 and refused
 
 
 def test_returned_orders_replay_in_the_uncached_cell(sim):
     rng = np.random.default_rng(11)
     for n in (5, 6, 7):
         assembly = sim.generate(n, rng)
-        result = VerifiedSearch(k=3).search(
-            lazy_scores(random_scorer(n), assembly), SimulatorSteps(sim, assembly)
-        )
-        for ranked in result.orders:
-            assert sim.replay(assembly, ranked.sequence) is None
+        for direction in Direction:
+            result = VerifiedSearch(k=3, direction=direction).plan(
+                random_scorer(n), assembly, SimulatorSteps(sim, assembly)
+            )
+            assert result.orders
+            for ranked in result.orders:
+                assert sim.replay(assembly, ranked.sequence) is None
+
+
+def test_the_fixation_prior_never_rules_out_a_step_an_order_takes(sim, generated):
+    """Every reachable state is buildable and every step the ground truth allows is fixed;
+    states outside the ground truth that the prior calls unbuildable are indeed unreached."""
+    for sample in generated:
+        truth, assembly = sample.truth, sample.assembly
+        prior = FixationPrior.of(assembly, sim.tolerance)
+        reached = set(truth.states.tolist())
+        for state, placeable in zip(truth.states.tolist(), truth.placeable.tolist(), strict=True):
+            assert prior.buildable(state)
+            assert all(prior.allows(state, p) for p in mask_to_parts(placeable))
+        unbuildable = [s for s in range(1 << assembly.n_parts) if not prior.buildable(s)]
+        assert unbuildable and not reached & set(unbuildable)
+        first = [p for p in range(assembly.n_parts) if prior.fixed(0, p)]
+        assert first == [p for p in range(assembly.n_parts) if assembly.parts[p].type.is_profile]
