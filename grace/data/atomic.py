@@ -1,4 +1,4 @@
-"""Atomic file writes: a reader never sees a half-written file (issue 2: writes are atomic)."""
+"""Atomic file writes: a reader never sees a half-written file."""
 
 from __future__ import annotations
 

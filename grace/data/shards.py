@@ -1,4 +1,4 @@
-"""Shard files: gzip-compressed JSON lines, one labelled assembly per line (issue 2).
+"""Shard files: gzip-compressed JSON lines, one labelled assembly per line.
 
 The gzip header carries no timestamp or file name (mtime=0, empty name), so the same records
 always give the same bytes.

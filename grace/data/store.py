@@ -1,4 +1,4 @@
-"""Generated data sets: cached, resumable, shardable and byte-deterministic (issue 2).
+"""Generated data sets: cached, resumable, shardable and byte-deterministic.
 
 :class:`GeneratedSource` (`dataset=generated`) is the data source. Layout:
 `<data_dir>/generated-<key>/` where the key hashes everything that decides the contents: the

@@ -19,15 +19,20 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
 from grace.domain.assembly import Assembly
-from grace.planning.search import Outcome, SearchResult, VerifiedSearch
+from grace.errors import UserError
+from grace.evaluation.baselines import random_scorer
+from grace.planning.search import Frontier, Outcome, SearchResult, VerifiedSearch
 from grace.planning.sequences import Scorer
 from grace.planning.step_checks import BlockerSteps, brute_force
 from grace.planning.topk import rank_sequences
+
+PLANNERS = ("grace", "grace_unverified", "heuristic", "dfs_blocks", "dfs", "brute_force")
+
 
 SUCCESS_LEVELS = (0.5, 0.9, 0.99)
 """Success rates at which the checks each planner needs are compared."""
@@ -270,3 +275,45 @@ def summarise(
             entry["unlabelled"] = _other_summary(unknown, names)
         out[str(size)] = entry
     return out
+
+
+def planner_set(
+    names: list[str],
+    search: VerifiedSearch,
+    scorer: Scorer,
+    heuristic: Scorer,
+    seed: int,
+    max_expansions: int | None = None,
+) -> dict[str, Planner]:
+    """The planners of `names` (see the module docstring), all searches with `search`'s
+    settings except where a baseline's definition says otherwise."""
+    unknown = sorted(set(names) - set(PLANNERS))
+    if unknown:
+        raise UserError(f"task.planners has unknown planners {unknown}; fix: use {list(PLANNERS)}")
+    dfs = replace(search, frontier=Frontier.greedy)
+    make = {
+        "grace": lambda: search_planner(search, scorer),
+        "grace_unverified": lambda: unverified_planner(scorer, max_expansions),
+        "heuristic": lambda: search_planner(search, heuristic),
+        "dfs_blocks": lambda: search_planner(replace(dfs, learn_blocks=True), random_scorer(seed)),
+        "dfs": lambda: search_planner(replace(dfs, learn_blocks=False), random_scorer(seed)),
+        "brute_force": lambda: brute_force_planner,
+    }
+    return {name: make[name]() for name in names}
+
+
+def summary_line(size: str, kind: str, name: str, figures: dict) -> str:
+    """One printed line of the summary: a planner's figures on one size and kind."""
+    if kind == "feasible":
+        success = " ".join(f"{v:5.2f}" for v in figures["success"].values())
+        checks, seconds = figures["median_checks"], figures["median_seconds"]
+        med = f"{checks:7.0f}" if checks is not None else "      ∞"
+        sec = f"{seconds:6.2f}" if seconds is not None else "     ∞"
+        return f"A{size:<3} {kind:<10} {name:<17} {success}  {med} {sec}"
+    checks, seconds = figures["median_checks"], figures["median_seconds"]
+    ratio = figures["median_fewer_than_brute_force"]
+    return (
+        f"A{size:<3} {kind:<10} {name:<17} proved {figures['proved']:4.2f}  median "
+        + (f"{checks:.0f} checks, {seconds:.2f} s" if checks is not None else "∞")
+        + (f", {ratio:.1f}x fewer than brute force" if ratio else "")
+    )

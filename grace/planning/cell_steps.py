@@ -1,19 +1,19 @@
 """Step checks by the simulator: the robot cell queried lazily, once per part.
 
 The first check of a part runs that part's cell queries (MuJoCo, `RobotCell.placement_options`:
-a few to tens of milliseconds) and reads each option's blockers off its verdict with every
-other part placed (`grace.simulation.explain.candidate_blocks`); every later check of that part
-is bitmask work plus the fixation rule (grace/planning/step_checks.py, docs/planning.md).
+a few to tens of milliseconds) and reads each option's (blockers, needs) pair off them the way
+the ground truth does (`OptionTable.blockers`); every later check of that part is bitmask work
+plus the fixation rule (grace/planning/step_checks.py, docs/planning.md).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from grace.domain.assembly import Assembly, full_mask
+from grace.domain.assembly import Assembly
 from grace.planning.step_checks import BlockerSteps
 from grace.simulation.check import OrderChecker
-from grace.simulation.explain import candidate_blocks
+from grace.simulation.feasibility import OptionTable
 from grace.simulation.simulator import Simulator
 
 
@@ -28,23 +28,17 @@ class SimulatorSteps(BlockerSteps):
     def __init__(self, simulator: Simulator, assembly: Assembly) -> None:
         super().__init__(assembly.n_parts)
         self.checker = OrderChecker(simulator, assembly)
-        self._others = full_mask(assembly.n_parts)
 
-    def part_masks(self, part: int) -> list[int]:
+    def part_masks(self, part: int) -> list[tuple[int, int]]:
+        """The simulator's own (blockers, needs) pairs of the part's usable options under its
+        active rules (`OptionTable.blockers`, what the ground truth is enumerated from)."""
         checker = self.checker
-        others = self._others & ~(1 << part)
-        out = []
-        for option in checker.options(part):
-            blocks = candidate_blocks(
-                option, checker.motions[part][option.motion], others, checker.simulator.rules
-            )
-            if any(b.part is None for b in blocks):
-                continue  # out of reach, or the arm hits the table or itself: in every state
-            mask = 0
-            for block in blocks:
-                mask |= 1 << block.part
-            out.append(mask)
-        return out
+        options = checker.options(part)
+        if not options:
+            return []
+        per_part = [options if p == part else [] for p in range(self.n_parts)]
+        table = OptionTable.build(checker.assembly, per_part, checker.fixation)
+        return [(int(b), int(n)) for b, n in table.blockers(checker.simulator.rules)[part]]
 
     def fixed(self, states: np.ndarray, part: int) -> np.ndarray:
         if "fixation" not in self.checker.simulator.rules:

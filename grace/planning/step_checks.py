@@ -6,15 +6,18 @@ charged in, and the ground truth's brute force decides one per reachable (state,
 pair (`GroundTruth.checks`). A `StepOracle` answers checks, caches them and counts the distinct
 ones; the search (grace/planning/search.py) sees only this interface, never the robot cell.
 
-Besides the verdict, a refused step says *what* keeps the part out when that is not fixation:
-for each of its options, the placed parts that block it. Obstacles only accumulate (a placed
-part is never removed, and an option is free in a state iff its blocker masks miss it,
-docs/world.md, "How the labels are computed"), so the part stays blocked in every state that
-holds a set of parts meeting all of them: the planner may drop all those states without asking
-again.
+Besides the verdict, a refused step says *what* keeps the part out for good when that is the
+case: for each of its options, the placed parts that block it. An option is free in a state iff
+its blockers miss the state and its needs (the parts whose open clamps it would hit, there
+until they are placed) lie in it (docs/world.md, "How the labels are computed"). Blockers only
+accumulate (a placed part is never removed), so once every option has a placed blocker, the
+part stays out in every state that holds a set of parts meeting all of them: the planner may
+drop all those states without asking again. A step refused for missing needs or by fixation
+may pass later: it names no blockers.
 
-`BlockerSteps` decides from per-part blocker masks and a fixation rule, the structure of the
-simulator's checks; `grace.planning.cell_steps.SimulatorSteps` gets both from the simulator.
+`BlockerSteps` decides from per-part (blockers, needs) pairs and a fixation rule, the structure
+of the simulator's checks; `grace.planning.cell_steps.SimulatorSteps` gets both from the
+simulator.
 """
 
 from __future__ import annotations
@@ -108,42 +111,49 @@ def minimal_masks(masks: list[int]) -> list[int]:
 
 
 class BlockerSteps(CachedSteps):
-    """Checks from per-part blocker masks and a fixation rule (the simulator's structure,
-    docs/world.md): `part` can be placed in `state` iff fixation holds and one of its masks
-    misses `state`. Subclasses provide the masks (lazily) and fixation."""
+    """Checks from per-part option masks and a fixation rule (the simulator's structure,
+    docs/world.md): `part` can be placed in `state` iff fixation holds and one of its options
+    is free (its blockers miss `state`, its needs lie in it). Subclasses provide the (blockers,
+    needs) pairs (lazily) and fixation."""
 
     def __init__(self, n_parts: int) -> None:
         super().__init__(n_parts)
-        self._masks: dict[int, list[int]] = {}
+        self._masks: dict[int, np.ndarray] = {}
 
-    def masks(self, part: int) -> list[int]:
-        """The part's minimal blocker masks, one per usable option class (computed once)."""
+    def masks(self, part: int) -> np.ndarray:
+        """The part's (blockers, needs) pairs (k×2 int64), one per usable option class
+        (computed once)."""
         if part not in self._masks:
-            self._masks[part] = minimal_masks(self.part_masks(part))
+            pairs = np.array(self.part_masks(part), dtype=np.int64)
+            self._masks[part] = pairs.reshape(-1, 2)
         return self._masks[part]
 
     @abstractmethod
-    def part_masks(self, part: int) -> list[int]:
-        """Blocker masks of the part's usable options (never-usable options left out)."""
+    def part_masks(self, part: int) -> list[tuple[int, int]]:
+        """(blockers, needs) of the part's usable options (never-usable options left out)."""
 
     @abstractmethod
     def fixed(self, states: np.ndarray, part: int) -> np.ndarray:
         """Whether fixation lets `part` go in each of the int64 `states` (a scalar works too)."""
 
     def decide(self, state: int, part: int) -> StepCheck:
-        masks = self.masks(part)
-        if any(not m & state for m in masks):
+        pairs = self.masks(part).tolist()
+        unblocked = [needs for blockers, needs in pairs if not blockers & state]
+        if any(needs & state == needs for needs in unblocked):
             return StepCheck(bool(self.fixed(np.int64(state), part)))
-        return StepCheck(False, tuple(minimal_masks([m & state for m in masks])))
+        if unblocked:  # refused for now: some option waits for parts still to come
+            return StepCheck(False)
+        return StepCheck(False, tuple(minimal_masks([b & state for b, _ in pairs])))
 
     def placeable(self, states: np.ndarray, part: int) -> np.ndarray:
         """The verdicts of `part` in many states at once, uncounted and uncached (the brute
         force's vectorised form, `brute_force`)."""
         states = np.asarray(states, dtype=np.int64)
-        masks = np.array(self.masks(part), dtype=np.int64)
-        if not masks.size:
+        pairs = self.masks(part)
+        if not len(pairs):
             return np.zeros(states.shape, dtype=bool)
-        free = ((states[:, None] & masks[None, :]) == 0).any(axis=1)
+        blockers, needs, s = pairs[None, :, 0], pairs[None, :, 1], states[:, None]
+        free = (((s & blockers) == 0) & ((s & needs) == needs)).any(axis=1)
         return free & self.fixed(states, part)
 
 

@@ -28,30 +28,24 @@ from typing import Any
 from hydra.utils import instantiate
 from omegaconf import MISSING, DictConfig, OmegaConf
 
+from grace.cli.runner import TaskSettings
 from grace.data.atomic import write_text_atomic
 from grace.data.store import GeneratedSource, assembly_rng
 from grace.errors import UserError
-from grace.evaluation.baselines import random_scorer
 from grace.evaluation.search_bench import (
     AssemblyRuns,
-    Planner,
-    brute_force_planner,
+    planner_set,
     run_planners,
-    search_planner,
     summarise,
-    unverified_planner,
+    summary_line,
 )
+from grace.model.checkpoints import find_checkpoint, load_model
 from grace.model.scoring import make_scorer
 from grace.planning.cell_steps import SimulatorSteps
-from grace.planning.search import Frontier, Outcome, VerifiedSearch
-from grace.planning.sequences import Scorer
-from grace.tasks.plan import find_checkpoint, load_model
-from grace.tasks.runner import TaskSettings
+from grace.planning.search import Outcome
 from grace.visualisation.search_plots import search_bench_plot
 
 log = logging.getLogger(__name__)
-
-PLANNERS = ("grace", "grace_unverified", "heuristic", "dfs_blocks", "dfs", "brute_force")
 
 
 @dataclass
@@ -72,47 +66,6 @@ class SearchBenchSettings(TaskSettings):
     reference: str = "dfs"
     heuristic: Any = MISSING  # grace.planning.heuristics.ContactHeuristic
     unverified_max_expansions: int | None = None  # the unverified top-1's best-first bound
-
-
-def planner_set(
-    names: list[str],
-    search: VerifiedSearch,
-    scorer: Scorer,
-    heuristic: Scorer,
-    seed: int,
-    max_expansions: int | None = None,
-) -> dict[str, Planner]:
-    """The planners of `names` (see the module docstring), all searches with `search`'s
-    settings except where a baseline's definition says otherwise."""
-    unknown = sorted(set(names) - set(PLANNERS))
-    if unknown:
-        raise UserError(f"task.planners has unknown planners {unknown}; fix: use {list(PLANNERS)}")
-    dfs = replace(search, frontier=Frontier.greedy)
-    make = {
-        "grace": lambda: search_planner(search, scorer),
-        "grace_unverified": lambda: unverified_planner(scorer, max_expansions),
-        "heuristic": lambda: search_planner(search, heuristic),
-        "dfs_blocks": lambda: search_planner(replace(dfs, learn_blocks=True), random_scorer(seed)),
-        "dfs": lambda: search_planner(replace(dfs, learn_blocks=False), random_scorer(seed)),
-        "brute_force": lambda: brute_force_planner,
-    }
-    return {name: make[name]() for name in names}
-
-
-def _line(size: str, kind: str, name: str, figures: dict) -> str:
-    if kind == "feasible":
-        success = " ".join(f"{v:5.2f}" for v in figures["success"].values())
-        checks, seconds = figures["median_checks"], figures["median_seconds"]
-        med = f"{checks:7.0f}" if checks is not None else "      ∞"
-        sec = f"{seconds:6.2f}" if seconds is not None else "     ∞"
-        return f"A{size:<3} {kind:<10} {name:<17} {success}  {med} {sec}"
-    checks, seconds = figures["median_checks"], figures["median_seconds"]
-    ratio = figures["median_fewer_than_brute_force"]
-    return (
-        f"A{size:<3} {kind:<10} {name:<17} proved {figures['proved']:4.2f}  median "
-        + (f"{checks:.0f} checks, {seconds:.2f} s" if checks is not None else "∞")
-        + (f", {ratio:.1f}x fewer than brute force" if ratio else "")
-    )
 
 
 def run(cfg: DictConfig) -> float | None:
@@ -141,7 +94,7 @@ def run(cfg: DictConfig) -> float | None:
     planners = planner_set(names, bench, scorer, heuristic, int(cfg.seed), expansions)
     oracle = lambda assembly: SimulatorSteps(simulator, assembly)  # noqa: E731
     samples = source.load()
-    gc.freeze()  # the loaded objects stay out of full collections (grace/tasks/plan_search.py)
+    gc.freeze()  # the loaded objects stay out of full collections (grace/cli/plan_search.py)
     begin = time.perf_counter()
     records: list[AssemblyRuns] = []
     disagreements = []
@@ -198,7 +151,7 @@ def run(cfg: DictConfig) -> float | None:
     for size, entry in summary.items():
         for kind in ("feasible", "infeasible"):
             for name, figures in entry.get(kind, {}).get("planners", {}).items():
-                print(_line(size, kind, name, figures))
+                print(summary_line(size, kind, name, figures))
         for name, figures in entry.get("unlabelled", {}).get("planners", {}).items():
             print(f"A{size:<3} unlabelled {name:<17} {figures['outcomes']}, "
                   f"max {figures['max_seconds']:.2f} s")  # fmt: skip

@@ -30,7 +30,7 @@ def search_bench_plot(summary: dict[str, dict], path: Path) -> None:
     axes[0].set_ylabel("verified order found")
     axes[0].legend(loc="lower right", fontsize=7)
     ax = axes[-1]
-    infeasible = [s for s, entry in summary.items() if "infeasible" in entry]
+    infeasible = [s for s, entry in summary.items() if entry.get("infeasible")]
     if infeasible:
         names = list(summary[infeasible[0]]["infeasible"]["planners"])
         x = np.arange(len(infeasible))

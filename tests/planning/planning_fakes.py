@@ -57,8 +57,9 @@ def traverse(scorer, assembly, threshold: float):
 
 class MaskSteps(BlockerSteps):
     """A hand-written world for the search: part p can be placed in state S iff fixation holds
-    (any part first; later, a part touching a placed one in `touch`) and one of `masks[p]` misses
-    S. `queried` counts the parts whose masks were read (the cell queries a simulator would run)."""
+    (any part first; later, a part touching a placed one in `touch`) and one of `masks[p]` is
+    free in S: a blocker mask that misses S, or a (blockers, needs) pair. `queried` counts the
+    parts whose masks were read (the cell queries a simulator would run)."""
 
     def __init__(self, masks: list[list[int]], touch: list[int] | None = None):
         super().__init__(len(masks))
@@ -68,7 +69,7 @@ class MaskSteps(BlockerSteps):
 
     def part_masks(self, part):
         self.queried += 1
-        return self.table[part]
+        return [m if isinstance(m, tuple) else (m, 0) for m in self.table[part]]
 
     def fixed(self, states, part):
         states = np.asarray(states, dtype=np.int64)

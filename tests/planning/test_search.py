@@ -11,7 +11,7 @@ import pytest
 from planning_fakes import MaskSteps, fixed_scores, line_assembly
 
 from grace.planning.search import Direction, Frontier, Outcome, VerifiedSearch
-from grace.planning.step_checks import blocking_set, brute_force, minimal_masks
+from grace.planning.step_checks import StepCheck, blocking_set, brute_force, minimal_masks
 
 LINE = [0b0010, 0b0101, 0b1010, 0b0100]
 """Four parts in a row: a later part must touch a placed one (fixation)."""
@@ -135,9 +135,10 @@ def test_a_part_no_option_of_which_is_usable_refutes_the_assembly_at_once(direct
     assert result.outcome == Outcome.infeasible and result.checks == 1
 
 
-def random_world(n: int, rng: np.random.Generator) -> tuple[list[list[int]], list[int]]:
-    """Random blocker masks (0–3 options per part, each blocked by 0–2 others) and a random
-    connected contact graph."""
+def random_world(n: int, rng: np.random.Generator) -> tuple[list[list], list[int]]:
+    """Random options (0–3 per part, each blocked by 0–2 others, a third of them needing one
+    more part placed first, as an open clamp in the way does) and a random connected contact
+    graph."""
     touch = [0] * n
     for p in range(1, n):
         q = int(rng.integers(p))
@@ -149,7 +150,12 @@ def random_world(n: int, rng: np.random.Generator) -> tuple[list[list[int]], lis
         for _ in range(int(rng.integers(0, 4))):
             others = [q for q in range(n) if q != p]
             chosen = rng.choice(others, size=int(rng.integers(0, 3)), replace=False)
-            options.append(sum(1 << int(q) for q in chosen))
+            blockers = sum(1 << int(q) for q in chosen)
+            free = [q for q in others if not blockers >> q & 1]
+            if rng.random() < 1 / 3:
+                options.append((blockers, 1 << int(rng.choice(free))))
+            else:
+                options.append(blockers)
         masks.append(options)
     return masks, touch
 
@@ -200,6 +206,20 @@ def test_k_orders_come_best_first_distinct_with_the_policys_probabilities(direct
     assert [r.probability for r in result.orders] == sorted(
         (r.probability for r in result.orders), reverse=True
     )
+
+
+def test_a_step_waiting_for_a_part_names_no_blockers_and_passes_once_it_is_placed():
+    """Part 0's only option needs part 2 placed first (its open clamp is in the way) and is
+    blocked by part 1: refused in {} for now, in {1} for good, placed in {2}."""
+    world = MaskSteps([[(0b010, 0b100)], [0], [0]])
+    assert world.check(0, 0) == StepCheck(False, None)
+    assert world.check(0b010, 0) == StepCheck(False, (0b010,))
+    assert world.check(0b100, 0) == StepCheck(True)
+    for direction in Direction:
+        result = VerifiedSearch(k=None, direction=direction).search(
+            fixed_scores({}, 3), MaskSteps([[(0b010, 0b100)], [0], [0]])
+        )
+        assert {r.sequence for r in result.orders} == {(2, 0, 1)}
 
 
 def test_minimal_masks_and_blocking_sets_taken_as_early_as_possible():

@@ -1,6 +1,6 @@
 """Kill/resume of `python -m grace scale=smoke`: a run stopped at a random point (SIGTERM, after
 some checkpoints exist) and rerun with the same command ends with the results.json metrics of an
-uninterrupted run (issue 13). The fast test of the resume logic is tests/model/test_resume.py."""
+uninterrupted run. The fast test of the resume logic is tests/cli/test_fit_resume.py."""
 
 import json
 import os
