@@ -13,13 +13,13 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import torch
 from joblib import Parallel, delayed
 from lightning.pytorch import seed_everything
 from omegaconf import DictConfig, OmegaConf
 from tqdm.contrib.logging import logging_redirect_tqdm
 
 from grace.cli.checks import protocol_split
+from grace.cli.determinism import cap_threads
 from grace.cli.logs import log_to_file
 from grace.cli.progress import ExperimentProgress
 from grace.domain.sample import LabelledAssembly
@@ -41,7 +41,7 @@ def start_fold(cfg: DictConfig, fold: Fold, threads: int, parent: int) -> None:
     if os.getpid() != parent:
         log_to_file(cfg.paths.log_file, f"fold {fold.index}")
     seed_everything(int(cfg.seed) + fold.index, workers=True, verbose=False)
-    torch.set_num_threads(threads)
+    cap_threads(threads)
 
 
 def portable(cfg: DictConfig) -> DictConfig:

@@ -6,13 +6,13 @@ import logging
 from dataclasses import dataclass
 from typing import Any
 
-import torch
 from hydra.core.hydra_config import HydraConfig
 from hydra.utils import instantiate
 from lightning.pytorch import seed_everything
 from omegaconf import MISSING, DictConfig
 
 from grace.cli.checks import check_config, ignored_options
+from grace.cli.determinism import cap_threads
 from grace.cli.logs import quiet_terminal
 
 log = logging.getLogger(__name__)
@@ -37,7 +37,7 @@ def run_task(cfg: DictConfig) -> float | None:
     its return value is the sweep objective."""
     quiet_terminal(cfg.paths.log_file)
     seed_everything(cfg.seed, workers=True, verbose=False)
-    torch.set_num_threads(cfg.threads)
+    cap_threads(cfg.threads)
     log.info("task %s", cfg.task.name)
     for warning in ignored_options(cfg, task_overrides()):
         log.warning(warning)

@@ -99,3 +99,43 @@ def metrics_table(
         for name, (label, metric) in pairs
     ]
     return markdown_table([first, "Metric", *(h for h, _ in columns)], rows)
+
+
+def _share(value: float | None) -> str:
+    return "–" if value is None else f"{value:.2f}"
+
+
+def dataset_tables(stats: Mapping[str, object]) -> str:
+    """The statistics `task=generate` writes (grace.data.stats.dataset_stats) as three markdown
+    tables: per size, what rules decide the orders, what makes assemblies infeasible."""
+    per_size: Mapping[str, Mapping] = stats["per_size"]  # type: ignore[assignment]
+    seconds: Mapping[str, float] = stats.get("seconds_per_assembly") or {}  # type: ignore[assignment]
+    sizes = list(per_size)
+    head = ["size", "assemblies", "infeasible", "orders mean (median)", "≥ 3 orders"]
+    head += ["robot-pruned", "non-local block", "checks: naive → run", "s per assembly"]
+    rows = [
+        [
+            f"A{size}",
+            str(s["assemblies"]),
+            _share(s["infeasible_fraction"]),
+            f"{s['orders_mean']:.1f} ({s['orders_median']:g})" if s["orders_mean"] else "–",
+            _share(s["multi_order_fraction"]),
+            _share(s["robot_pruned_fraction"]),
+            _share(s["nonlocal_block_fraction"]),
+            f"{s['naive_checks']:,} → {s['checks']:,}",
+            f"{seconds[size]:.3f}" if size in seconds else "–",
+        ]
+        for size, s in per_size.items()
+    ]
+    tables = [markdown_table(head, rows)]
+    for key, title in (
+        ("rule_decisive_fraction", "rule decides"),
+        ("infeasible_mechanisms", "mechanism"),
+    ):
+        names = list(dict.fromkeys(n for s in per_size.values() for n in s.get(key) or {}))
+        body = [
+            [name, *(_share((per_size[size].get(key) or {}).get(name)) for size in sizes)]
+            for name in names
+        ]
+        tables.append(markdown_table([title, *(f"A{size}" for size in sizes)], body))
+    return "\n\n".join(tables)

@@ -1,4 +1,5 @@
-"""`python -m grace task=generate`: make (or finish) the data set, write stats.json and a top view.
+"""`python -m grace task=generate`: make (or finish) the data set, write its statistics (stats.json,
+the same as markdown tables in stats.md) and a top view.
 
 With `dataset.num_shards>1` a run generates only its share; stats and the picture are written by
 whichever run finds the data set complete. `task.export_raw=/folder` also exports every assembly
@@ -23,6 +24,7 @@ from grace.data.stats import dataset_stats
 from grace.data.store import GeneratedSource, read_chunks, seconds_per_assembly
 from grace.domain.sample import LabelledAssembly
 from grace.errors import UserError
+from grace.evaluation.tables import dataset_tables
 from grace.visualisation.topview import topview_png
 
 log = logging.getLogger(__name__)
@@ -37,6 +39,7 @@ class GenerateSettings(TaskSettings):
 
 
 STATS_FILE = "stats.json"
+STATS_TABLES = "stats.md"
 TOPVIEW_FILE = "topview.png"
 
 
@@ -54,7 +57,7 @@ def pick_examples(samples: Sequence[LabelledAssembly], count: int) -> list[Label
 
 
 def run(cfg: DictConfig) -> None:
-    """Generate this run's share; once the data set is complete write stats.json and topview.png."""
+    """Generate this run's share; once the data set is complete, write statistics and top view."""
     source = instantiate(cfg.dataset)
     if not isinstance(source, GeneratedSource):
         raise UserError(
@@ -73,6 +76,7 @@ def run(cfg: DictConfig) -> None:
     seconds = seconds_per_assembly(generation.path, generation.chunks)
     stats = dataset_stats(samples, seconds, str(generation.path))
     write_text_atomic(out / STATS_FILE, json.dumps(stats, indent=2) + "\n")
+    write_text_atomic(out / STATS_TABLES, dataset_tables(stats) + "\n")
     examples = pick_examples(samples, int(cfg.task.topview))
     if examples:
         write_bytes_atomic(out / TOPVIEW_FILE, topview_png(examples))

@@ -67,6 +67,11 @@ def test_generate_smoke_end_to_end(cfg_factory, tmp_path):
     sizes = {int(k): int(v) for k, v in cfg.scale.sizes.items()}
     assert_stats_schema(stats, sizes)
     assert (out / "topview.png").read_bytes().startswith(b"\x89PNG")
+    tables = (out / "stats.md").read_text()
+    a5 = stats["per_size"]["5"]
+    assert f"| A5 | {sizes[5]} | {a5['infeasible_fraction']:.2f} |" in tables
+    fixation = f"| fixation | {stats['per_size']['3']['rule_decisive_fraction']['fixation']:.2f} |"
+    assert fixation in tables
     samples = load_generated(cfg)
     assert stats["per_size"]["5"]["infeasible_fraction"] == pytest.approx(
         sum(not s.truth.feasible for s in samples if s.size == 5) / sizes[5]
