@@ -175,6 +175,7 @@ class RootConfig:
     logger: Any = None
     protocol: Any = None
     classifier: Any = None
+    planner: Any = None
     scale: Any = None
     tune: Any = None
 
@@ -203,6 +204,8 @@ def heavy_schemas() -> dict[str, type]:
     from grace.graphs.encoding import GraphEncoding
     from grace.model.grace_pyg import NetConfig
     from grace.model.module import GraceModule
+    from grace.planning.search import VerifiedSearch
+    from grace.planning.topk import TopKListing
 
     return {
         "model": schema(
@@ -218,6 +221,8 @@ def heavy_schemas() -> dict[str, type]:
         "logger/csv": schema(CSVLogger),
         "logger/tensorboard": schema(TensorBoardLogger),
         "tune": TuneConfig,
+        "planner/verified": schema(VerifiedSearch),
+        "planner/topk": schema(TopKListing),
     } | task_schemas()
 
 

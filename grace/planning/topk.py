@@ -75,12 +75,15 @@ def top_k(
     k: int,
     threshold: float,
     bounds: np.ndarray | None = None,
+    max_expansions: int | None = None,
 ) -> list[Ranked]:
     """The k most probable complete sequences with every step score ≥ `threshold`.
 
     `bounds` (completion_bounds of the same scores and threshold) turns the search into A*:
     the same sequences, each found after O(N²) expansions; ties of equal probability may then
-    come out in another order than the lexicographic one.
+    come out in another order than the lexicographic one. Without bounds, near-uniform scores
+    can make the search expand up to N! prefixes: `max_expansions` stops it there, with the
+    sequences found so far (maybe none).
     """
     full = full_mask(n_parts)
     start = 1.0 if bounds is None else float(bounds[0])
@@ -88,11 +91,15 @@ def top_k(
         (-start, (), 0, (), 1.0)
     ]
     out: list[Ranked] = []
+    expansions = 0
     while heap and len(out) < k:
         _, prefix, state, steps, prob = heapq.heappop(heap)
         if state == full:
             out.append(Ranked(prefix, prob, steps))
             continue
+        expansions += 1
+        if max_expansions is not None and expansions > max_expansions:
+            break
         row = scores(state)
         for part in range(n_parts):
             if state >> part & 1 or not row[part] >= threshold:
@@ -106,6 +113,18 @@ def top_k(
                 heap, (-(prob * step) * rest, (*prefix, part), child, (*steps, step), prob * step)
             )
     return out
+
+
+@dataclass(frozen=True)
+class TopKListing:
+    """`planner=topk` (grace/conf/planner/topk.yaml): list the `k` most probable complete
+    sequences whose every step scores ≥ `threshold`, unverified (`rank_sequences`)."""
+
+    k: int = 10
+    threshold: float = 0.0
+    max_expansions: int | None = None
+
+    verify = False  # the task layer checks the listed sequences afterwards
 
 
 FULL_TABLE_MAX_PARTS = 14
@@ -128,8 +147,17 @@ class Ranking:
     passes: int
 
 
-def rank_sequences(scorer: Scorer, assembly: Assembly, k: int, threshold: float = 0.0) -> Ranking:
-    """The `k` most probable complete sequences with every step ≥ `threshold`, best first."""
+def rank_sequences(
+    scorer: Scorer,
+    assembly: Assembly,
+    k: int,
+    threshold: float = 0.0,
+    max_expansions: int | None = None,
+) -> Ranking:
+    """The `k` most probable complete sequences with every step ≥ `threshold`, best first.
+
+    Above `FULL_TABLE_MAX_PARTS` parts the best-first search has no completion bounds:
+    `max_expansions` caps it (see `top_k`)."""
     n = assembly.n_parts
     if n <= FULL_TABLE_MAX_PARTS:
         scored = score_states(scorer, assembly, threshold=0.0)
@@ -137,5 +165,5 @@ def rank_sequences(scorer: Scorer, assembly: Assembly, k: int, threshold: float 
         ranked = top_k(scores, n, k, threshold, completion_bounds(scored, threshold))
         return Ranking(ranked, bottleneck(scored), scores, scored.passes)
     lazy = lazy_scores(scorer, assembly)
-    ranked = top_k(lazy, n, k, threshold)
+    ranked = top_k(lazy, n, k, threshold, max_expansions=max_expansions)
     return Ranking(ranked, None, lazy, len(lazy.cache))  # type: ignore[attr-defined]

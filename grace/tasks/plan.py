@@ -25,12 +25,14 @@ from typing import Any
 from hydra.utils import instantiate
 from omegaconf import MISSING, DictConfig
 
+from grace.cli.plan_search import plan_verified
 from grace.cli.runner import TaskSettings
 from grace.data.atomic import write_text_atomic
 from grace.data.raw_format import read_assembly
 from grace.errors import UserError
 from grace.model.checkpoints import find_checkpoint, load_model
 from grace.model.scoring import make_scorer
+from grace.planning.topk import FULL_TABLE_MAX_PARTS
 from grace.simulation.check import blockers, describe
 from grace.visualisation.recording import write_recording
 from grace.visualisation.records import SequenceRecord, sequence_record
@@ -45,8 +47,6 @@ class PlanSettings(TaskSettings):
     ckpt: str | None = MISSING  # a run folder (train or experiment) or a .ckpt file
     assembly: str | None = MISSING  # a raw assembly folder or an assembly.spec file
     fold: int = 0  # which fold's model of an experiment run folder
-    k: int = 10  # sequences listed, best first
-    threshold: float = 0.0  # λ: only sequences whose every step scores ≥ λ are listed
 
 
 def plan_json(record: SequenceRecord, sources: dict[str, Any]) -> dict[str, Any]:
@@ -101,26 +101,28 @@ def run(cfg: DictConfig) -> float | None:
     assembly, truth = read_assembly(cfg.task.assembly)
     module, kept = load_model(ckpt)
     simulator = instantiate(kept.simulator)
+    planner = instantiate(cfg.planner)
     start = time.perf_counter()
     load_seconds = start - begin
+    sources = {"checkpoint": str(ckpt), "assembly": str(cfg.task.assembly)}
+    if planner.verify:  # the default: grace/cli/plan_search.py
+        sources["load_seconds"] = load_seconds
+        plan_verified(planner, assembly, truth, make_scorer(module), simulator, sources, out_dir)
+        return None
+    if assembly.n_parts > FULL_TABLE_MAX_PARTS:
+        log.warning(
+            "%d parts: the top-k listing scores states lazily without completion bounds and "
+            "stops after planner.max_expansions=%s; planner=verified is the bounded planner",
+            assembly.n_parts, planner.max_expansions,
+        )  # fmt: skip
     record = sequence_record(
-        "plan",
-        assembly,
-        make_scorer(module),
-        simulator,
-        truth,
-        int(cfg.task.k),
-        int(cfg.task.k),
-        float(cfg.task.threshold),
-    )
+        "plan", assembly, make_scorer(module), simulator, truth, planner.k, planner.k,
+        planner.threshold, planner.max_expansions,
+    )  # fmt: skip
     seconds = time.perf_counter() - start
-    sources = {
-        "checkpoint": str(ckpt),
-        "assembly": str(cfg.task.assembly),
-        "seconds": seconds,  # scoring, top-k, simulator checks and poses (model loaded)
-        "load_seconds": load_seconds,  # checkpoint, config, assembly, simulator
-    }
-    result = plan_json(record, {**sources, "k": int(cfg.task.k), "threshold": cfg.task.threshold})
+    sources["seconds"] = seconds  # scoring, top-k, simulator checks and poses (model loaded)
+    sources["load_seconds"] = load_seconds  # checkpoint, config, assembly, simulator
+    result = plan_json(record, {**sources, "k": planner.k, "threshold": planner.threshold})
     write_text_atomic(out_dir / "plan.json", json.dumps(result, indent=2) + "\n")
     write_recording([record], out_dir / "plan.rrd", out_dir.name)
     feas = "n/a" if record.feasibility is None else f"{record.feasibility:.4f}"
@@ -135,7 +137,7 @@ def run(cfg: DictConfig) -> float | None:
         order = " ".join(str(p) for p in entry["sequence"])
         print(f"{entry['rank']:3d}. {order}  p={entry['probability']:.4g}  simulator: {verdict}")
     if not result["sequences"]:
-        print(f"no complete sequence has every step scoring ≥ {cfg.task.threshold}")
+        print(f"no complete sequence has every step scoring ≥ {planner.threshold}")
     print(
         f"planned and checked in {seconds:.2f} s (loading {load_seconds:.2f} s); "
         f"plan.json and plan.rrd in {out_dir}"

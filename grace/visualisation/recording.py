@@ -14,7 +14,8 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -23,7 +24,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 from rerun.chunk import RrdReader
 
-from grace.domain.assembly import mask_to_parts
+from grace.domain.assembly import Assembly, mask_to_parts
 from grace.simulation.clearance import part_boxes
 from grace.simulation.robot_cell import CellPose
 from grace.visualisation.records import SequenceRecord
@@ -32,11 +33,11 @@ APPLICATION_ID = "grace"
 TIMELINE = "step"
 
 _UNPLACED = (170, 170, 170, 70)
-_PLACED = (90, 130, 200, 255)
-_CURRENT = (60, 180, 75, 255)
-_BLOCKED = (220, 40, 40, 255)
-_BLOCKER = (245, 150, 30, 255)
-_CLAMP = (80, 80, 80, 200)
+PLACED = (90, 130, 200, 255)
+CURRENT = (60, 180, 75, 255)
+BLOCKED = (220, 40, 40, 255)
+BLOCKER = (245, 150, 30, 255)
+CLAMP = (80, 80, 80, 200)
 _TOOL = (240, 200, 60, 255)
 _ARM = (235, 120, 30, 255)
 
@@ -47,15 +48,17 @@ def entity_root(record: SequenceRecord, index: int) -> str:
     return f"/{record.group}/{rr.escape_entity_path_part(name)}"
 
 
-def _boxes(boxes: np.ndarray, colour: tuple, labels: list[str] | None = None) -> rr.Boxes3D:
+def boxes_view(boxes: np.ndarray, colour: tuple, labels: list[str] | None = None) -> rr.Boxes3D:
     lo, hi = boxes[:, 0], boxes[:, 1]
     return rr.Boxes3D(mins=lo, sizes=hi - lo, colors=[colour] * len(boxes), labels=labels)
 
 
-def _parts(record: SequenceRecord, placed: int, current: int | None) -> rr.Boxes3D:
+def parts_view(assembly: Assembly, placed: int, highlight: dict[int, tuple]) -> rr.Boxes3D:
+    """Every part as boxes labelled with its number: placed blue, the rest grey, the parts of
+    `highlight` in their own colour."""
     boxes, colours, labels = [], [], []
-    for i, part in enumerate(record.assembly.parts):
-        colour = _CURRENT if i == current else _PLACED if placed >> i & 1 else _UNPLACED
+    for i, part in enumerate(assembly.parts):
+        colour = highlight.get(i, PLACED if placed >> i & 1 else _UNPLACED)
         for k, box in enumerate(part_boxes(part)):
             boxes.append(box)
             colours.append(colour)
@@ -64,7 +67,7 @@ def _parts(record: SequenceRecord, placed: int, current: int | None) -> rr.Boxes
     return rr.Boxes3D(mins=lo, sizes=hi - lo, colors=colours, labels=labels, show_labels=True)
 
 
-def _log_arms(
+def log_arms(
     rec: rr.RecordingStream, root: str, pose: CellPose, links: Sequence[tuple[float, float]]
 ) -> None:
     """Each arm's links as capsules (MuJoCo bodies `arm<a>_l1…l4`, each link along its body's z
@@ -130,15 +133,17 @@ def record_assembly(rec: rr.RecordingStream, record: SequenceRecord, root: str) 
     top = record.failures[0] if record.failures and record.failures[0].rank == 1 else None
     for step, view in enumerate(record.steps):
         rec.set_time(TIMELINE, sequence=step)
-        rec.log(f"{root}/cell/parts", _parts(record, view.placed, view.part))
+        rec.log(
+            f"{root}/cell/parts", parts_view(record.assembly, view.placed, {view.part: CURRENT})
+        )
         clamps = [record.clamps[p] for p in mask_to_parts(view.placed) if p in record.clamps]
         if clamps:
-            rec.log(f"{root}/cell/clamps", _boxes(np.concatenate(clamps), _CLAMP))
+            rec.log(f"{root}/cell/clamps", boxes_view(np.concatenate(clamps), CLAMP))
         else:
             rec.log(f"{root}/cell/clamps", rr.Clear(recursive=False))
         if view.pose is not None:
-            _log_arms(rec, root, view.pose, record.arm_links)
-            rec.log(f"{root}/cell/tool", _boxes(view.pose.tool, _TOOL))
+            log_arms(rec, root, view.pose, record.arm_links)
+            rec.log(f"{root}/cell/tool", boxes_view(view.pose.tool, _TOOL))
         else:
             rec.log(f"{root}/cell/tool", rr.Clear(recursive=False))
         labels = [str(p) for p in range(record.assembly.n_parts)]
@@ -146,7 +151,7 @@ def record_assembly(rec: rr.RecordingStream, record: SequenceRecord, root: str) 
         rec.log(f"{root}/step", rr.TextDocument(_step_markdown(record, step)))
         if top is not None and step == top.step:
             parts = record.assembly.parts
-            blocked = [(top.part, _BLOCKED)] + [(q, _BLOCKER) for q in top.blocking]
+            blocked = [(top.part, BLOCKED)] + [(q, BLOCKER) for q in top.blocking]
             boxes = [(part_boxes(parts[p]), c, str(p)) for p, c in blocked]
             rec.log(
                 f"{root}/cell/failure",
@@ -165,8 +170,10 @@ def record_assembly(rec: rr.RecordingStream, record: SequenceRecord, root: str) 
             rec.log(f"{root}/failures", rr.TextLog(text, level="ERROR"))
 
 
-def _blueprint(roots: list[str]) -> rrb.Blueprint:
-    tabs = [
+def assembly_tabs(roots: list[str]) -> list[rrb.Horizontal]:
+    """One tab per assembly: the cell in 3-D, the part scores, the step text, the failure log
+    and the sequence table side by side."""
+    return [
         rrb.Horizontal(
             rrb.Spatial3DView(origin=f"{root}/cell", name="cell"),
             rrb.Vertical(
@@ -179,28 +186,35 @@ def _blueprint(roots: list[str]) -> rrb.Blueprint:
         )
         for root in roots
     ]
-    return rrb.Blueprint(rrb.Tabs(*tabs), collapse_panels=False)
 
 
-def write_recording(records: Sequence[SequenceRecord], path: str | Path, name: str) -> Path:
-    """Write `records` into the `.rrd` at `path` (written beside it, then renamed into place)."""
+@contextmanager
+def recording_stream(path: str | Path, name: str) -> Iterator[rr.RecordingStream]:
+    """A rerun stream into the `.rrd` at `path`: written beside it, renamed into place when the
+    block ends without error (nothing half-written otherwise)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     rec = rr.RecordingStream(APPLICATION_ID, recording_id=name)
     try:
         rec.save(tmp)
-        rec.set_log_time_enabled(False)  # the step timeline only: same input, same file
-        roots = [entity_root(r, i) for i, r in enumerate(records)]
-        for record, root in zip(records, roots, strict=True):
-            record_assembly(rec, record, root)
-        rec.send_blueprint(_blueprint(roots))
+        rec.set_log_time_enabled(False)  # our timelines only: same input, same file
+        yield rec
         rec.flush()
         rec.disconnect()
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
-    return path
+
+
+def write_recording(records: Sequence[SequenceRecord], path: str | Path, name: str) -> Path:
+    """Write `records` into the `.rrd` at `path` (atomically, `recording_stream`)."""
+    with recording_stream(path, name) as rec:
+        roots = [entity_root(r, i) for i, r in enumerate(records)]
+        for record, root in zip(records, roots, strict=True):
+            record_assembly(rec, record, root)
+        rec.send_blueprint(rrb.Blueprint(rrb.Tabs(*assembly_tabs(roots)), collapse_panels=False))
+    return Path(path)
 
 
 @dataclass

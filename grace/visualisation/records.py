@@ -16,7 +16,7 @@ from grace.domain.assembly import Assembly
 from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
 from grace.planning.sequences import Scorer
-from grace.planning.topk import Ranked, rank_sequences
+from grace.planning.topk import Ranked, StateScores, rank_sequences
 from grace.simulation.check import OrderCheck, OrderChecker, blockers, describe
 from grace.simulation.robot_cell import CellPose
 from grace.simulation.simulator import Simulator
@@ -131,28 +131,47 @@ def sequence_record(
     top_k: int,
     truth_orders: int,
     threshold: float = 0.0,
+    max_expansions: int | None = None,
 ) -> SequenceRecord:
     """Rank, check and pose one assembly (the best sequence's cell at every step)."""
-    ranking = rank_sequences(scorer, assembly, top_k, threshold)
+    ranking = rank_sequences(scorer, assembly, top_k, threshold, max_expansions)
     checker = OrderChecker(simulator, assembly)
-    checks = [checker.check(r.sequence) for r in ranking.ranked]
+    return ranked_record(
+        group, ranking.ranked, ranking.scores, checker, truth, truth_orders, ranking.feasibility
+    )
+
+
+def ranked_record(
+    group: str,
+    ranked: list[Ranked],
+    scores: StateScores,
+    checker: OrderChecker,
+    truth: GroundTruth | None,
+    truth_orders: int,
+    feasibility: float | None = None,
+) -> SequenceRecord:
+    """Check and pose listed sequences of `checker`'s assembly (the first one's cell at every
+    step); `scores(state)` gives the policy's part scores of a state."""
+    assembly, simulator = checker.assembly, checker.simulator
+    checks = [checker.check(r.sequence) for r in ranked]
     failures = [
         f
         for rank, check in enumerate(checks, 1)
         if (f := first_failure(rank, check, checker, truth)) is not None
     ]
     steps, placed = [], 0
-    for part in ranking.ranked[0].sequence if ranking.ranked else ():
+    for part in ranked[0].sequence if ranked else ():
         pose = checker.pose(placed, part)
-        scores = np.asarray(ranking.scores(placed))
-        steps.append(StepView(placed, part, scores, pose, _label(truth, placed)))
+        steps.append(
+            StepView(placed, part, np.asarray(scores(placed)), pose, _label(truth, placed))
+        )
         placed |= 1 << part
     return SequenceRecord(
         group=group,
         assembly=assembly,
-        ranked=ranking.ranked,
+        ranked=ranked,
         checks=checks,
-        feasibility=ranking.feasibility,
+        feasibility=feasibility,
         truth_orders=list(truth.orders(limit=truth_orders)) if truth is not None else [],
         n_truth_orders=truth.n_orders() if truth is not None else None,
         failures=failures,

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from grace.domain.assembly import Assembly, Part, PartType, planar_pose
+from grace.planning.step_checks import BlockerSteps
 
 
 def line_assembly(n: int) -> Assembly:
@@ -52,3 +53,38 @@ def traverse(scorer, assembly, threshold: float):
 
     recurse(0, (), 1.0, ())
     return out, dead, passes
+
+
+class MaskSteps(BlockerSteps):
+    """A hand-written world for the search: part p can be placed in state S iff fixation holds
+    (any part first; later, a part touching a placed one in `touch`) and one of `masks[p]` is
+    free in S: a blocker mask that misses S, or a (blockers, needs) pair. `queried` counts the
+    parts whose masks were read (the cell queries a simulator would run)."""
+
+    def __init__(self, masks: list[list[int]], touch: list[int] | None = None):
+        super().__init__(len(masks))
+        self.table = masks
+        self.touch = touch
+        self.queried = 0
+
+    def part_masks(self, part):
+        self.queried += 1
+        return [m if isinstance(m, tuple) else (m, 0) for m in self.table[part]]
+
+    def fixed(self, states, part):
+        states = np.asarray(states, dtype=np.int64)
+        if self.touch is None:
+            return np.ones(states.shape, dtype=bool)
+        return (states == 0) | ((states & self.touch[part]) != 0)
+
+
+def fixed_scores(rows: dict[int, list[float]], n: int, default: float = 0.5):
+    """StateScores of a fake policy: `rows[state]` where given, else `default` for every part;
+    `asked` lists the states scored, in order."""
+
+    def scores(state: int) -> np.ndarray:
+        scores.asked.append(state)
+        return np.asarray(rows.get(state, [default] * n), dtype=np.float64)
+
+    scores.asked = []
+    return scores

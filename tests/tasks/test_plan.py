@@ -29,6 +29,12 @@ br item_angle_bracket 1;0;0;20.25&0;1;0;20&0;0;1;0&0;0;0;1
 end Pieces
 """
 KNOWN_ORDERS = {(0, 2, 1), (1, 2, 0)}  # bar, bracket, stem / stem, bracket, bar
+RAILS = """begin Pieces
+bar item_profile_300 0;-1;0;0&1;0;0;0&0;0;1;0&0;0;0;1
+left item_profile_200 1;0;0;-24&0;1;0;120&0;0;1;0&0;0;0;1
+right item_profile_200 1;0;0;24&0;1;0;120&0;0;1;0&0;0;0;1
+end Pieces
+"""
 
 
 def fit(cfg_factory, root):
@@ -73,14 +79,18 @@ def test_plan_with_a_model_fitted_to_a_hand_made_assembly(cfg_factory, tmp_path)
     assert (train / "config.yaml").is_file() and (train / "checkpoints" / "best.ckpt").is_file()
 
     # Algorithm 1 at λ = 0.5 retrieves exactly the known orders; the simulator passes them.
-    result, _ = plan(cfg_factory, train, asm, "task.k=6", "task.threshold=0.5")
+    result, _ = plan(
+        cfg_factory, train, asm, "planner=topk", "planner.k=6", "planner.threshold=0.5"
+    )
     assert {tuple(s["sequence"]) for s in result["sequences"]} == KNOWN_ORDERS
     assert all(s["simulator"]["feasible"] for s in result["sequences"])
     assert result["feasibility"] >= 0.5
 
     # All 3! orders best first: the known ones first, every other one refused by the simulator
     # at its first step outside them, with the deciding rule.
-    result, cfg = plan(cfg_factory, train / "checkpoints" / "best.ckpt", asm, "task.k=6")
+    result, cfg = plan(
+        cfg_factory, train / "checkpoints" / "best.ckpt", asm, "planner=topk", "planner.k=6"
+    )
     ranked = [tuple(s["sequence"]) for s in result["sequences"]]
     assert sorted(ranked) == sorted(itertools.permutations(range(3)))
     assert set(ranked[:2]) == KNOWN_ORDERS
@@ -103,6 +113,29 @@ def test_plan_with_a_model_fitted_to_a_hand_made_assembly(cfg_factory, tmp_path)
     assert len(refused) == 4 and all("is refused by the simulator" in t for t in refused)
     assert any("fingers: finger hits part" in t for t in refused)
     assert any("fixation" in t for t in refused)
+
+    # The default planner, the verified search: only orders every step of which the simulator
+    # accepts, the most probable first, and the search itself in plan.rrd.
+    result, cfg = plan(cfg_factory, train, asm, "planner.k=2")
+    assert result["outcome"] == "verified" and result["checks"] >= 3
+    assert {tuple(o["sequence"]) for o in result["orders"]} == KNOWN_ORDERS
+    assert all(all(o["simulator"]["verdicts"]) and len(o["simulator"]["verdicts"]) == 3
+               for o in result["orders"])  # fmt: skip
+    probabilities = [o["probability"] for o in result["orders"]]
+    assert probabilities == sorted(probabilities, reverse=True)
+    rrd = Path(cfg.paths.output_dir) / "plan.rrd"
+    summary = summarise(rrd)
+    assert {"/plan/asm/search/log", "/plan/asm/search/tree", "/plan/asm/cell/parts"} <= set(
+        summary.entities
+    )
+    assert any("placed" in t for _, _, t in text_entries(rrd, "/search/log"))
+    # Two stems 8 mm apart: whichever comes second cannot be gripped. Infeasible, and said so.
+    rails = tmp_path / "rails"
+    rails.mkdir()
+    (rails / "assembly.spec").write_text(RAILS)
+    result, cfg = plan(cfg_factory, train, rails)
+    assert result["outcome"] == "infeasible" and result["orders"] == []
+    assert result["refused"]["count"] >= 1 and result["refused"]["first"][0]["reason"]
 
     # Bad inputs: one UserError line each.
     with pytest.raises(UserError, match="no checkpoint there"):

@@ -1,0 +1,72 @@
+"""What the fixation rule alone allows, known from the geometry before any step check.
+
+Fixation (docs/world.md, "Rules"): the first part is a profile; a later profile needs a placed
+part it touches; a bracket needs a placed profile it joins. From which parts touch, a planner
+knows two things without the simulator: whether a part is fixed in a state, and whether a state
+can be built at all (some order of its parts satisfies fixation). A step that either fails
+leads nowhere, so the verified search tries the steps both allow first
+(`VerifiedSearch.fixation_prior`); the simulator's checks still decide every step. Backward,
+this matters most: taking a part away can leave a rest that no order builds (a bracket whose
+profiles are gone, a frame cut in two), which the policy, trained on reachable states only, was
+never asked about.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from grace.domain.assembly import Assembly, mask_to_parts
+from grace.simulation.feasibility import Fixation
+from grace.simulation.joints import touching
+
+
+@dataclass(frozen=True)
+class FixationPrior:
+    """`first`: the parts fixation lets go first; `enablers[p]`: the parts any one of which,
+    placed, fixes p (both read off the simulator's own rule, `Fixation.holds`)."""
+
+    first: int
+    enablers: tuple[int, ...]
+    _built: dict[int, bool] = field(default_factory=dict, compare=False, repr=False)
+
+    @classmethod
+    def of(cls, assembly: Assembly, tolerance: float) -> FixationPrior:
+        """The prior of `assembly`; `tolerance`: the cell's touch tolerance (mm)."""
+        fixation = Fixation.of(assembly, touching(assembly, tolerance))
+        n = assembly.n_parts
+        singles = np.int64(1) << np.arange(n, dtype=np.int64)
+        first = sum(1 << p for p in range(n) if fixation.holds(np.int64(0), p))
+        enablers = tuple(
+            sum(1 << q for q in np.flatnonzero(fixation.holds(singles, p)) if q != p)
+            for p in range(n)
+        )
+        return cls(first, enablers)
+
+    def fixed(self, state: int, part: int) -> bool:
+        return bool(self.first >> part & 1 if state == 0 else self.enablers[part] & state)
+
+    def buildable(self, state: int) -> bool:
+        """Some order of the parts of `state` satisfies fixation: grown from a part that may go
+        first, each next part fixed by those before (adding parts never unfixes one)."""
+        if state not in self._built:
+            self._built[state] = state == 0 or any(
+                self._grown(1 << p, state) == state for p in mask_to_parts(state & self.first)
+            )
+        return self._built[state]
+
+    def _grown(self, start: int, state: int) -> int:
+        grown, changed = start, True
+        while changed:
+            changed = False
+            for part in mask_to_parts(state & ~grown):
+                if self.enablers[part] & grown:
+                    grown |= 1 << part
+                    changed = True
+        return grown
+
+    def allows(self, before: int, part: int) -> bool:
+        """Fixation alone lets the step place `part` into the state `before`, and some order
+        builds `before`."""
+        return self.fixed(before, part) and self.buildable(before)

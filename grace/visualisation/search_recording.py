@@ -1,0 +1,229 @@
+"""plan.rrd of a verified search: how the search went, and the verified order in the cell.
+
+`search_record` gathers what to draw where the simulator lives (the reasons of every refusal
+from `Simulator.explain`'s verdicts, the cell's poses along the verified order); the writer
+logs, under `/plan/<assembly>` (docs/recordings.md):
+
+- on the `check` timeline, one row per search event (a step the checks accepted, a step they
+  refused, a state ruled out by a learnt block): the parts placed in that state, the part tried
+  (green: placed, red: refused or ruled out) and the parts that block it (orange), and a log
+  line naming the rule and what blocks it;
+- the search tree (states, verified steps, refused candidates) as a graph, and a summary;
+- on the `step` timeline, the verified order replayed with both arms, exactly as an
+  experiment's sequences.rrd shows a sequence (grace/visualisation/recording.py).
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import rerun as rr
+import rerun.blueprint as rrb
+
+from grace.domain.assembly import mask_to_parts
+from grace.domain.orders import GroundTruth
+from grace.planning.cell_steps import SimulatorSteps
+from grace.planning.search import SearchResult
+from grace.planning.topk import StateScores
+from grace.simulation.check import blockers, describe
+from grace.visualisation.recording import (
+    BLOCKED,
+    BLOCKER,
+    CLAMP,
+    CURRENT,
+    PLACED,
+    assembly_tabs,
+    boxes_view,
+    entity_root,
+    parts_view,
+    record_assembly,
+    recording_stream,
+)
+from grace.visualisation.records import SequenceRecord, ranked_record
+
+SEARCH_TIMELINE = "check"
+
+
+@dataclass(frozen=True)
+class SearchStep:
+    """One search event as drawn: `kind` as `SearchEvent.kind`, the state, the part tried,
+    the checks spent so far, the parts that block it and the deciding rule (refusals), and one
+    line of reason."""
+
+    kind: str
+    state: int
+    part: int
+    checks: int
+    blocking: tuple[int, ...]
+    rule: str | None
+    reason: str
+
+
+@dataclass
+class SearchRecord:
+    """A verified search of one assembly as plan.rrd shows it (module docstring)."""
+
+    order: SequenceRecord
+    outcome: str
+    checks: int
+    seconds: float
+    first_checks: int | None
+    expanded: int
+    steps: list[SearchStep]
+    events: int
+    """All events of the search; `steps` holds the first ones only (`max_events`)."""
+
+
+def search_record(
+    group: str,
+    result: SearchResult,
+    scores: StateScores,
+    oracle: SimulatorSteps,
+    truth: GroundTruth | None,
+    truth_orders: int = 5,
+    max_events: int = 2000,
+) -> SearchRecord:
+    """What plan.rrd shows of `result` (its first `max_events` events)."""
+    checker = oracle.checker
+    names = [p.name for p in checker.assembly.parts]
+    steps = []
+    for event in result.events[:max_events]:
+        if event.kind == "refused":
+            verdict = checker.verdict(event.state, event.part)
+            hit = tuple(sorted({b.part for b in blockers(verdict) if b.part is not None}))
+            steps.append(
+                SearchStep(
+                    event.kind, event.state, event.part, event.checks, hit, verdict.rule,
+                    describe(verdict, names),
+                )
+            )  # fmt: skip
+        elif event.kind == "ruled_out":
+            hit = tuple(mask_to_parts(event.blocked_by or 0))
+            reason = f"ruled out: part {event.part} cannot be placed once parts {list(hit)} are"
+            steps.append(
+                SearchStep(event.kind, event.state, event.part, event.checks, hit, None, reason)
+            )
+        else:
+            steps.append(
+                SearchStep(event.kind, event.state, event.part, event.checks, (), None, "placed")
+            )
+    order = ranked_record(group, result.orders, scores, checker, truth, truth_orders)
+    return SearchRecord(
+        order=order,
+        outcome=str(result.outcome),
+        checks=result.checks,
+        seconds=result.seconds,
+        first_checks=result.first_checks,
+        expanded=result.expanded,
+        steps=steps,
+        events=len(result.events),
+    )
+
+
+def _summary_markdown(record: SearchRecord) -> str:
+    assembly = record.order.assembly
+    rules = Counter(s.rule for s in record.steps if s.kind == "refused")
+    kinds = Counter(s.kind for s in record.steps)
+    lines = [
+        f"## {assembly.name or 'assembly'} ({assembly.n_parts} parts): {record.outcome}",
+        "",
+        f"{record.checks} simulator step checks in {record.seconds:.2f} s; "
+        f"{record.expanded} states scored by the policy",
+    ]
+    if record.first_checks is not None:
+        lines.append(f"first verified order after {record.first_checks} checks")
+    lines += [
+        "",
+        f"events: {kinds['placed']} steps taken, {kinds['refused']} refused, "
+        f"{kinds['ruled_out']} states ruled out"
+        + (
+            f" (the first {len(record.steps)} of {record.events} shown)"
+            if record.events > len(record.steps)
+            else ""
+        ),
+        "",
+        "refusals by rule: " + (", ".join(f"{r}: {c}" for r, c in rules.most_common()) or "none"),
+        "",
+        "| rank | verified order | probability |",
+        "|---|---|---|",
+    ]
+    for rank, ranked in enumerate(record.order.ranked, 1):
+        order = " ".join(str(p) for p in ranked.sequence)
+        lines.append(f"| {rank} | {order} | {ranked.probability:.4g} |")
+    return "\n".join(lines)
+
+
+def _tree(record: SearchRecord) -> tuple[rr.GraphNodes, rr.GraphEdges]:
+    """States (blue), the complete assembly (green) and refused candidates (red), linked by
+    the steps tried."""
+    full = (1 << record.order.assembly.n_parts) - 1
+    nodes: dict[str, tuple[str, tuple]] = {"0": ("∅", PLACED)}
+    edges = []
+    for step in record.steps:
+        if step.kind == "ruled_out":
+            continue
+        if step.kind == "placed":
+            child = step.state | 1 << step.part
+            target = f"{child:x}"
+            nodes.setdefault(target, (f"+{step.part}", CURRENT if child == full else PLACED))
+        else:
+            target = f"{step.state:x}x{step.part}"
+            nodes[target] = (f"✗{step.part}", BLOCKED)
+        edges.append((f"{step.state:x}", target))
+    ids = list(nodes)
+    return (
+        rr.GraphNodes(ids, labels=[nodes[i][0] for i in ids], colors=[nodes[i][1] for i in ids]),
+        rr.GraphEdges(edges, graph_type="directed"),
+    )
+
+
+def log_search(rec: rr.RecordingStream, record: SearchRecord, root: str) -> None:
+    """The search under `root` (static summary and tree, then one row per event)."""
+    rec.log(root, rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+    rec.log(
+        f"{root}/summary",
+        rr.TextDocument(_summary_markdown(record), media_type="text/markdown"),
+        static=True,
+    )
+    nodes, edges = _tree(record)
+    rec.log(f"{root}/tree", nodes, edges, static=True)
+    clamps = record.order.clamps
+    level = {"placed": "INFO", "refused": "WARN", "ruled_out": "DEBUG"}
+    for index, step in enumerate(record.steps):
+        rec.set_time(SEARCH_TIMELINE, sequence=index)
+        colour = CURRENT if step.kind == "placed" else BLOCKED
+        highlight = {q: BLOCKER for q in step.blocking} | {step.part: colour}
+        rec.log(f"{root}/cell/parts", parts_view(record.order.assembly, step.state, highlight))
+        placed = [clamps[p] for p in mask_to_parts(step.state) if p in clamps]
+        if placed:
+            rec.log(f"{root}/cell/clamps", boxes_view(np.concatenate(placed), CLAMP))
+        else:
+            rec.log(f"{root}/cell/clamps", rr.Clear(recursive=False))
+        text = (
+            f"check {step.checks}: placed {mask_to_parts(step.state) or 'nothing'}, "
+            f"part {step.part}: {step.reason}"
+        )
+        rec.log(f"{root}/log", rr.TextLog(text, level=level[step.kind]))
+
+
+def write_search_recording(record: SearchRecord, path: str | Path, name: str) -> Path:
+    """plan.rrd: the search and the verified order (module docstring), written atomically."""
+    root = entity_root(record.order, 0)
+    with recording_stream(path, name) as rec:
+        record_assembly(rec, record.order, root)
+        log_search(rec, record, f"{root}/search")
+        search_tab = rrb.Horizontal(
+            rrb.Spatial3DView(origin=f"{root}/search/cell", name="search: cell"),
+            rrb.Vertical(
+                rrb.GraphView(origin=f"{root}/search/tree", name="search tree"),
+                rrb.TextLogView(origin=f"{root}/search/log", name="checks"),
+                rrb.TextDocumentView(origin=f"{root}/search/summary", name="summary"),
+            ),
+            name="search",
+        )
+        tabs = rrb.Tabs(search_tab, *assembly_tabs([root]))
+        rec.send_blueprint(rrb.Blueprint(tabs, collapse_panels=False))
+    return Path(path)
