@@ -25,7 +25,7 @@ def profile_epochs(cfg: DictConfig) -> float:
     """Profile the first fold's first epochs; write profile.json; return the mean epoch's CPU
     seconds."""
     data = instantiate(cfg.dataset).load()
-    fold = protocol_folds(cfg, [sample.size for sample in data])[2][0]
+    fold = protocol_folds(cfg, data)[2][0]
     cfg = OmegaConf.merge(cfg, {"trainer": {"max_epochs": cfg.task.profile_epochs}})
     cfg.trainer.profiler = {"_target_": "grace.model.profiling.StageProfiler"}
     start_fold(cfg, fold, int(cfg.threads), os.getpid())
