@@ -14,13 +14,13 @@ from pathlib import Path
 import lightning.pytorch as pl
 import numpy as np
 from hydra.utils import instantiate
-from lightning.pytorch.callbacks import ModelCheckpoint
 from omegaconf import DictConfig, OmegaConf, open_dict
 
 from grace.data.atomic import write_text_atomic
 from grace.domain.sample import LabelledAssembly
 from grace.errors import UserError
 from grace.model.module import GraceModule
+from grace.model.resume import LastCheckpoint
 from grace.model.training import fit
 
 KEPT_CONFIG = "config.yaml"
@@ -119,17 +119,11 @@ def _results_keys(node: dict) -> dict:
 
 
 def _last_checkpoint(callbacks: Sequence[object]) -> Path | None:
-    """Where the configured callbacks write the checkpoint of the latest epoch, or None.
-
-    Our `last_checkpoint` (an unmonitored ModelCheckpoint named `last`) or Lightning's
-    `save_last` of any ModelCheckpoint (which writes it only in epochs that write a best one).
-    """
-    for c in callbacks:
-        if not isinstance(c, ModelCheckpoint) or c.dirpath is None:
-            continue
-        if c.save_last or (c.monitor is None and c.filename == c.CHECKPOINT_NAME_LAST):
-            return Path(c.dirpath) / f"{c.CHECKPOINT_NAME_LAST}{c.FILE_EXTENSION}"
-    return None
+    """Where the configured callbacks write the checkpoint a rerun resumes from, or None: our
+    `last_checkpoint` (grace/model/resume.py), the only one written after the epoch's lr
+    scheduler steps."""
+    found = [c.path for c in callbacks if isinstance(c, LastCheckpoint)]
+    return found[0] if found else None
 
 
 def resume_from(cfg: DictConfig, out_dir: str | Path, callbacks: Sequence[object]) -> str | None:
