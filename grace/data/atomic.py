@@ -1,10 +1,12 @@
-"""Atomic file writes: a reader never sees a half-written file (issue 2: writes are atomic)."""
+"""Atomic file writes: a reader never sees a half-written file."""
 
 from __future__ import annotations
 
+import json
 import os
 import tempfile
 from pathlib import Path
+from typing import Any
 
 
 def _read_umask() -> int:
@@ -33,3 +35,11 @@ def write_bytes_atomic(path: str | Path, data: bytes) -> None:
 
 def write_text_atomic(path: str | Path, text: str) -> None:
     write_bytes_atomic(path, text.encode("utf-8"))
+
+
+def write_json_atomic(path: str | Path, obj: Any, indent: int | None = None) -> None:
+    """Write `obj` as strict JSON (RFC 8259: no NaN or Infinity, which strict parsers reject):
+    a non-finite float is a ValueError here, at the writer, so every caller decides what its
+    value means (a finite bound or null, documented with the file), never the reader."""
+    text = json.dumps(obj, indent=indent, allow_nan=False)
+    write_text_atomic(path, text + "\n" if indent is not None else text)

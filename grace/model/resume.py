@@ -1,16 +1,18 @@
 """Exact resumption of a killed training run from `last.ckpt` (docs/operations.md, "Resume").
 
-Lightning's own checkpoints are written when validation ends, before the rest of the epoch's end:
-the epoch-interval lr schedulers step after it (a plateau scheduler counts its bad epochs and may
-lower the lr), and a fit resumed from such a checkpoint skips that step for the restored epoch. A
-resumed fit then lags one scheduler update behind and diverges once the plateau decides. So
+Lightning's ModelCheckpoint writes its checkpoint inside the epoch's end, before the
+epoch-interval lr schedulers step (a plateau scheduler counts its bad epochs and may lower the
+lr), and a fit resumed from it finishes that epoch's end without the step (Lightning skips it on
+purpose: a plateau scheduler's metric is not in the checkpoint). The resumed fit then lags one
+scheduler update behind and diverges once the plateau decides, `patience` epochs later. So
 :class:`LastCheckpoint` writes `last.ckpt` at the true end of an epoch instead, when every
 end-of-epoch update (callbacks, loggers, lr schedulers, loop counters, the data module's
-shuffling) has run: at the start of the next epoch, before it draws anything, and when the fit
-ends. Lightning resumes from that point without replaying or skipping any update. The checkpoint
-also holds the global random generators (Lightning does not keep them), so anything drawn from
-them during training (dropout, sampling) continues as in an uninterrupted run, and whether the
-fit had ended (early stopping), so a rerun after the end trains no further epoch.
+shuffling) has run: as the next epoch starts, before it draws anything, and when the fit ends.
+The loggers are flushed first, so the logged history reaches the disk with it. A fit resumed
+from it starts the next epoch as an uninterrupted one would. The checkpoint also holds the global
+random generators (Lightning does not keep them), so anything drawn from them during training
+(dropout, sampling) continues as in an uninterrupted run, and whether the fit had ended (early
+stopping), so a rerun after the end trains no further epoch.
 """
 
 from __future__ import annotations
@@ -60,6 +62,10 @@ class LastCheckpoint(pl.Callback):
         return Path(self.dirpath) / LAST_NAME
 
     def _save(self, trainer: pl.Trainer) -> None:
+        # The logs up to this epoch reach the disk with the checkpoint: a resumed fit continues
+        # them (grace/evaluation/collapse.py reads the history of every run of a fit).
+        for logger in trainer.loggers:
+            logger.save()
         # Lightning writes the file in place; a kill in the middle would leave half a checkpoint.
         tmp = self.path.with_name(f".{LAST_NAME}.{os.getpid()}.tmp")
         self.path.parent.mkdir(parents=True, exist_ok=True)
