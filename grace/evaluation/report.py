@@ -13,7 +13,6 @@ assembly). Definitions in docs/metrics.md. std is the population standard deviat
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Sequence
 from pathlib import Path
@@ -21,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from grace.data.atomic import write_text_atomic
+from grace.data.atomic import write_json_atomic, write_text_atomic
 
 METRIC_ROWS = (
     ("P@1 (strict: empty = 0)", ("p_at_k_strict", "1")),
@@ -245,5 +244,5 @@ def write_results(results: dict, out_dir: Path) -> None:
     """Write results.json and results.md into `out_dir` atomically."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    write_text_atomic(out_dir / "results.json", json.dumps(results, indent=2) + "\n")
+    write_json_atomic(out_dir / "results.json", results)
     write_text_atomic(out_dir / "results.md", results_markdown(results))

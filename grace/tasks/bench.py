@@ -20,7 +20,6 @@ Writes `bench.json` into the run's output folder and returns the fast/PyG traini
 
 from __future__ import annotations
 
-import json
 import logging
 import time
 from dataclasses import dataclass
@@ -31,7 +30,7 @@ import torch
 from hydra.utils import instantiate
 from omegaconf import MISSING, DictConfig
 
-from grace.data.atomic import write_text_atomic
+from grace.data.atomic import strict_json, write_json_atomic
 from grace.domain.sample import LabelledAssembly
 from grace.evaluation.baselines import BASELINES
 from grace.evaluation.evaluate import evaluate_by_size
@@ -192,6 +191,6 @@ def run(cfg: DictConfig) -> float:
         "batch_size": batch_size,
         "assemblies": {str(train_size): len(train), str(infer_size): len(infer)},
     }
-    write_text_atomic(out_dir / "bench.json", json.dumps(result, indent=2) + "\n")
-    print(json.dumps(result, indent=2))
+    write_json_atomic(out_dir / "bench.json", result)
+    print(strict_json(result))
     return result["speedup_train"]

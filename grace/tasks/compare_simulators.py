@@ -7,13 +7,13 @@ or read from the cache, like `task=generate`) and prints their assembly-by-assem
 
 from __future__ import annotations
 
-import json
 import sys
 
 from hydra import compose, initialize_config_dir
 from hydra.utils import instantiate
 
 from grace import CONF_DIR
+from grace.data.atomic import strict_json
 from grace.data.stats import SIMULATORS, simulator_comparison
 from grace.tasks.schemas import register_schemas
 
@@ -25,7 +25,7 @@ def main() -> None:
         with initialize_config_dir(config_dir=str(CONF_DIR), version_base=None):
             cfg = compose("config", overrides=[*sys.argv[1:], f"simulator={name}"])
         labelled[name] = instantiate(cfg.dataset).load()
-    print(json.dumps(simulator_comparison(labelled), indent=2))
+    print(strict_json(simulator_comparison(labelled)))
 
 
 if __name__ == "__main__":

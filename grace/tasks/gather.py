@@ -23,7 +23,7 @@ from typing import Any
 
 from omegaconf import MISSING, DictConfig
 
-from grace.data.atomic import write_text_atomic
+from grace.data.atomic import write_json_atomic, write_text_atomic
 from grace.errors import UserError
 from grace.evaluation.report import METRIC_ROWS, cell, lookup, mean_std
 from grace.tasks.runner import TaskSettings
@@ -212,7 +212,7 @@ def run(cfg: DictConfig) -> None:
     out_dir = Path(cfg.paths.output_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     tables["runs"] = [str(p.parent) for p in paths]
-    write_text_atomic(out_dir / "gather.json", json.dumps(tables, indent=2) + "\n")
+    write_json_atomic(out_dir / "gather.json", tables)
     markdown = gather_markdown(tables, len(paths))
     write_text_atomic(out_dir / "gather.md", markdown)
     print(markdown)

@@ -15,7 +15,6 @@ another config stops with one line naming both files.
 
 from __future__ import annotations
 
-import json
 import logging
 import time
 from dataclasses import dataclass
@@ -25,7 +24,7 @@ from typing import Any
 from hydra.utils import instantiate
 from omegaconf import MISSING, DictConfig, OmegaConf
 
-from grace.data.atomic import write_text_atomic
+from grace.data.atomic import write_json_atomic
 from grace.data.raw_format import read_assembly
 from grace.errors import UserError
 from grace.model.module import GraceModule
@@ -168,7 +167,7 @@ def run(cfg: DictConfig) -> float | None:
         "load_seconds": load_seconds,  # checkpoint, config, assembly, simulator
     }
     result = plan_json(record, {**sources, "k": int(cfg.task.k), "threshold": cfg.task.threshold})
-    write_text_atomic(out_dir / "plan.json", json.dumps(result, indent=2) + "\n")
+    write_json_atomic(out_dir / "plan.json", result)
     write_recording([record], out_dir / "plan.rrd", out_dir.name)
     feas = "n/a" if record.feasibility is None else f"{record.feasibility:.4f}"
     print(f"{assembly.name}: {assembly.n_parts} parts, feasibility score {feas}")

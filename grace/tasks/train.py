@@ -7,7 +7,6 @@ the run's output folder and returns the held-out step AUC over all sizes.
 
 from __future__ import annotations
 
-import json
 import logging
 import time
 from dataclasses import dataclass
@@ -18,7 +17,7 @@ import numpy as np
 from hydra.utils import instantiate
 from omegaconf import MISSING, DictConfig
 
-from grace.data.atomic import write_text_atomic
+from grace.data.atomic import write_json_atomic
 from grace.domain.sample import LabelledAssembly
 from grace.errors import UserError
 from grace.evaluation.metrics import step_auc
@@ -104,5 +103,5 @@ def run(cfg: DictConfig) -> float:
         "checkpoint": str(checkpoint) if checkpoint.exists() else None,
         "seconds": time.perf_counter() - start,
     }
-    write_text_atomic(out_dir / "metrics.json", json.dumps(metrics, indent=2) + "\n")
+    write_json_atomic(out_dir / "metrics.json", metrics)
     return overall
