@@ -83,7 +83,8 @@ def surface_embedding(net: GraceNet, dense: DenseAssemblies) -> torch.Tensor:
 def _ownership(dense: DenseAssemblies, dtype: torch.dtype) -> torch.Tensor:
     """(A, N, S) 1 where surface s belongs to part n, 0 elsewhere and on padding."""
     n = dense.part_mask.shape[1]
-    own = dense.surface_part.unsqueeze(1) == torch.arange(n).view(1, n, 1)
+    parts = torch.arange(n, device=dense.surface_part.device).view(1, n, 1)
+    own = dense.surface_part.unsqueeze(1) == parts
     return (own & dense.surface_mask.unsqueeze(1)).to(dtype)
 
 
@@ -200,7 +201,7 @@ def first_state_block(
     gat = net.surface_gat(net.cfg.first_state_block)
     t, s = owner_flag.shape
     # Flat index into logits (A, S, S, 4): one gather, no (T, S, S, 4) copy.
-    pair = torch.arange(s * s).view(1, s, s) * 4
+    pair = torch.arange(s * s, device=owner_flag.device).view(1, s, s) * 4
     choice = (2 * owner_flag.unsqueeze(2) + owner_flag.unsqueeze(1)).long()
     index = state_assembly.view(t, 1, 1) * (s * s * 4) + pair + choice
     padding = (~rows.surface_mask).to(owner_flag.dtype).unsqueeze(1) * _MASKED
@@ -255,7 +256,8 @@ def pair_relations(net: GraceNet, dense: DenseAssemblies, static: torch.Tensor) 
     if net.cfg.pair_geometry:
         relations = relations + net.pair_geom(dense.pair_geometry)
     mask = dense.part_mask.to(z.dtype)
-    pairs = mask.unsqueeze(2) * mask.unsqueeze(1) * (1 - torch.eye(n, dtype=z.dtype))
+    eye = torch.eye(n, dtype=z.dtype, device=z.device)
+    pairs = mask.unsqueeze(2) * mask.unsqueeze(1) * (1 - eye)
     return relations * pairs.unsqueeze(-1)
 
 

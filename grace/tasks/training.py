@@ -13,6 +13,7 @@ from pathlib import Path
 
 import lightning.pytorch as pl
 import numpy as np
+import torch
 from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf, open_dict
 
@@ -87,6 +88,7 @@ def train_module(
     )
     if extra_states:
         datamodule.train_set.extend(extra_states, datamodule.chunk_size)
+    _check_accelerator(cfg)
     configured = instantiate_named(cfg.callbacks)
     resume = resume_from(cfg, out_dir, configured)
     keep_config(cfg, out_dir)
@@ -97,6 +99,15 @@ def train_module(
         **({} if val else {"limit_val_batches": 0}),
     )
     return fit(module, datamodule, trainer, ckpt_path=resume)
+
+
+def _check_accelerator(cfg: DictConfig) -> None:
+    """`trainer=gpu` on a machine where torch sees no CUDA device: one line with the fix."""
+    if cfg.trainer.accelerator in ("gpu", "cuda") and not torch.cuda.is_available():
+        raise UserError(
+            f"trainer.accelerator={cfg.trainer.accelerator}, but torch {torch.__version__} sees "
+            "no CUDA device; fix: trainer=cpu, or a CUDA build of torch on a machine with a GPU"
+        )
 
 
 RUN_ONLY = (
