@@ -20,7 +20,12 @@ from grace.model.impls import PreparedAssembly
 from grace.model.scoring import Scorer, evaluation_tensors
 from grace.tasks.training import train_module
 
-VARIANTS = ("grace", "grace_geometric", "grace_state")
+PATHS = [
+    ("grace", "fast"),
+    ("grace_state", "fast"),  # the state-aware surface blocks
+    ("grace_geometric", "fast"),  # the relational readout with pair geometry
+    ("grace_geometric", "pyg"),
+]
 
 
 def _batch_and_module(cfg_factory, samples, model: str, impl: str):
@@ -52,8 +57,7 @@ def _plan_logits(module, inputs, impl: str) -> torch.Tensor:
     return module.net.readout(state_features(module.net, prepared.dense, index, flags, shared))
 
 
-@pytest.mark.parametrize("impl", ["fast", "pyg"])
-@pytest.mark.parametrize("model", VARIANTS)
+@pytest.mark.parametrize(("model", "impl"), PATHS)
 def test_no_tensor_is_made_off_its_inputs_device(cfg_factory, samples, model, impl):
     batch, module = _batch_and_module(cfg_factory, samples, model, impl)
     planning = _planning_inputs(module, samples[1], impl)

@@ -119,7 +119,9 @@ def whole(cfg_factory, samples, tmp_path):
     "kills",
     [
         pytest.param([KillAfterLrStep()], id="after-lr-step"),
-        pytest.param([KillAt(2), KillAt(5), KillAfterLrStep()], id="three-kills"),
+        pytest.param(
+            [KillAt(2), KillAt(5), KillAfterLrStep()], id="three-kills", marks=pytest.mark.slow
+        ),
     ],
 )
 def test_a_killed_fit_resumes_to_the_uninterrupted_fit(whole, tmp_path, kills):
