@@ -71,17 +71,25 @@ def test_submitit_local_runs_a_two_job_sweep_like_the_basic_launcher(tmp_path):
     assert local[0]["step_auc"] != local[1]["step_auc"]  # two seeds, two different runs
 
 
+SMOKE = ("scale=smoke", "protocol.folds=2", "trainer.max_epochs=3")
+
+
+@pytest.fixture(scope="module")
+def basic_smoke_sweep(tmp_path_factory) -> tuple[Path, list[dict]]:
+    """The experiment's two-run sweep under the basic launcher, which the other launchers'
+    sweeps (in the same folder, sharing its data set) must reproduce."""
+    folder = tmp_path_factory.mktemp("sweeps")
+    return folder, sweep(folder, "basic", "basic", *SMOKE)
+
+
 @pytest.mark.slow
-def test_the_experiment_gives_the_same_metrics_under_every_local_launcher(tmp_path):
-    smoke = ("scale=smoke", "protocol.folds=2", "trainer.max_epochs=3")
-    runs = {
-        launcher: sweep(tmp_path, launcher, launcher, *smoke)
-        for launcher in ("basic", "joblib", "submitit_local")
-    }
+def test_the_experiment_gives_the_same_metrics_under_every_local_launcher(basic_smoke_sweep):
+    folder, basic = basic_smoke_sweep
     for launcher in ("joblib", "submitit_local"):
-        for a, b in zip(runs["basic"], runs[launcher], strict=True):
+        runs = sweep(folder, launcher, launcher, *SMOKE)
+        for a, b in zip(basic, runs, strict=True):
             assert a["per_size"] == b["per_size"] and a["baselines"] == b["baselines"]
-    assert [r["run"]["seed"] for r in runs["basic"]] == [0, 1]
+    assert [r["run"]["seed"] for r in basic] == [0, 1]
 
 
 def test_the_slurm_launcher_config_composes():
@@ -120,15 +128,16 @@ def slurm_cluster():
 
 
 @pytest.mark.slow
-def test_a_two_job_sweep_on_slurm_gives_the_basic_launchers_metrics(tmp_path, slurm_cluster):
+def test_a_two_job_sweep_on_slurm_gives_the_basic_launchers_metrics(
+    basic_smoke_sweep, slurm_cluster
+):
     assert shutil.which("sbatch")
-    smoke = ("scale=smoke", "protocol.folds=2", "trainer.max_epochs=3")
+    folder, basic = basic_smoke_sweep
     small = ("hydra.launcher.cpus_per_task=1", "hydra.launcher.mem_gb=2")  # both jobs at once
-    slurm = sweep(tmp_path, "slurm", "slurm", *smoke, *small)
-    basic = sweep(tmp_path, "basic", "basic", *smoke)
+    slurm = sweep(folder, "slurm", "slurm", *SMOKE, *small)
     assert len(slurm) == len(basic) == 2
     for a, b in zip(slurm, basic, strict=True):
         assert a["per_size"] == b["per_size"] and a["baselines"] == b["baselines"]
     assert [r["run"]["seed"] for r in slurm] == [0, 1]
-    logs = list((tmp_path / "slurm" / ".submitit").glob("*/*_log.out"))
+    logs = list((folder / "slurm" / ".submitit").glob("*/*_log.out"))
     assert len(logs) == 2  # each run was a SLURM job (submitit keeps a log per job)

@@ -71,7 +71,7 @@ def test_a_run_killed_at_random_points_resumes_to_the_same_results(tmp_path):
         # training or evaluation (a start-up alone takes a while, and a kill in it saves nothing).
         while run.poll() is None and not _checkpointed_since(tmp_path / "killed", started):
             time.sleep(0.2)
-        delay = float(rng.uniform(0.0, 0.1 * whole_s))
+        delay = float(rng.uniform(0.0, 0.25 * whole_s))
         try:
             code = run.wait(timeout=delay)
         except subprocess.TimeoutExpired:
