@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # A single-node SLURM cluster on this machine, for the test of `hydra/launcher=slurm`
-# (tests/tasks/test_slurm.py; docs/operations.md, "Cluster"). Run as root; idempotent: it installs
-# Debian's slurm-wlm and munge if missing, writes /etc/slurm/slurm.conf for this host, starts
-# munged, slurmctld and slurmd unless they run, and waits until the node takes jobs.
+# (tests/tasks/test_launchers.py; docs/operations.md, "Clusters"). Run as root; idempotent: it
+# installs Debian's slurm-wlm and munge if missing, writes /etc/slurm/slurm.conf for this host,
+# starts munged, slurmctld and slurmd unless they run, and waits until the node takes jobs. A
+# slurm.conf it did not write is never overwritten: that cluster is used if it takes jobs.
 #
 # No systemd is needed: the daemons start by hand. No cgroups either: process tracking by the
 # process tree (proctrack/linuxproc), no task containment (task/none), so it also runs in a
@@ -20,10 +21,17 @@ fi
 
 host="$(hostname -s)"
 cpus="$(nproc)"
+marker="# Written by .ci/slurm-setup.sh"
+if [ -e /etc/slurm/slurm.conf ] && ! head -1 /etc/slurm/slurm.conf | grep -qx "${marker}: one node, this host, for tests."; then
+  # A cluster of someone else's: never overwrite its config; use it if it takes jobs.
+  sinfo -h -o %T 2>/dev/null | grep -qE '^(idle|mixed)' \
+    && { echo "slurm-setup: using the existing cluster (/etc/slurm/slurm.conf not ours)"; exit 0; }
+  fail "/etc/slurm/slurm.conf exists and is not ours, and its cluster takes no jobs"
+fi
 memory_mb="$(awk '/MemTotal/ {print int($2 / 1024 * 0.9)}' /proc/meminfo)"
 mkdir -p /etc/slurm /var/spool/slurmctld /var/spool/slurmd /var/log/slurm /run/munge
 cat >/etc/slurm/slurm.conf <<EOF
-# Written by .ci/slurm-setup.sh: one node, this host, for tests.
+${marker}: one node, this host, for tests.
 ClusterName=grace-ci
 SlurmctldHost=${host}
 SlurmUser=root
