@@ -3,9 +3,9 @@
 `infeasibility.png`: one panel per infeasibility mechanism (docs/world.md), each an assembly
 labelled by the MuJoCo cell of `grace/conf/simulator/dual_arm.yaml`: hand-built frames where a
 small one shows the mechanism, otherwise the first generated A7 assembly (seed 0) that only this
-mechanism makes infeasible (or, failing that, one it shares with others); plus a feasible ladder
-with its orders. Slide motions are arrows,
-clamps hatched. `topview.png` is the one `python -m grace task=generate` writes into its run
+mechanism makes infeasible (or, failing that, one it shares with others); plus a feasible
+rectangle whose last rung slides in along its hosts' grooves. Slide motions are arrows, clamp
+bases hatched. `topview.png` is the one `python -m grace task=generate` writes into its run
 folder.
 """
 
@@ -22,7 +22,7 @@ from matplotlib.figure import Figure
 from grace import CONF_DIR
 from grace.domain.assembly import Assembly, Part, PartType, planar_pose
 from grace.domain.sample import LabelledAssembly
-from grace.simulation.cell_config import MECHANISMS
+from grace.simulation.cell_config import MECHANISMS, register
 from grace.visualisation.topview import draw
 
 
@@ -41,25 +41,15 @@ HAND = {
         "stems 8 mm apart: no room for a finger beside whichever comes first",
         build("rails", profile(300, 0, 0, True), profile(200, -24, 120), profile(200, 24, 120)),
     ),
-    "frame_closing": (
-        "closed rectangle: the last part cannot slide in, its own frame is in the way",
-        build(
-            "rectangle",
-            profile(300, 0, 0, True),
-            profile(300, 0, 240, True),
-            profile(200, -130, 120),
-            profile(200, 130, 120),
-        ),
-    ),
 }
-LADDER = (
-    "ladder (feasible): rungs between the bars, the last bar slides onto both",
+LAST_RUNG = (
+    "rectangle (feasible): the last rung slides in along both bars' grooves from their open ends",
     build(
-        "ladder",
+        "rectangle",
         profile(300, 0, 0, True),
         profile(300, 0, 240, True),
-        profile(200, -40, 120),
-        profile(200, 40, 120),
+        profile(200, -130, 120),
+        profile(200, 130, 120),
     ),
 )
 
@@ -99,7 +89,7 @@ def infeasibility_figure(simulator, path: Path) -> None:
             panels.append((f"{mechanism}: generated", _generated(simulator, mechanism)))
         except LookupError as missing:
             print(missing)
-    panels.append((LADDER[0], simulator.label(LADDER[1])))
+    panels.append((LAST_RUNG[0], simulator.label(LAST_RUNG[1])))
     columns = 4
     rows = -(-len(panels) // columns)
     fig = Figure(figsize=(4.2 * columns, 4.6 * rows))
@@ -110,17 +100,31 @@ def infeasibility_figure(simulator, path: Path) -> None:
         for part, options in zip(sample.assembly.parts, motions, strict=True):
             # A stem's push into its joint(s): the shortest slide that makes all its connections.
             push = simulator.motion.slide_length + 1e-6
+            lowest = min(float(m.waypoints[0][2]) for m in options)
             for m in options:
+                if m.waypoints[0][2] > lowest:  # the same move from a higher carry height
+                    continue
                 if m.kind == "slide" and not m.joint_blockers and m.travel <= push:
                     start = part.pose[:2, 3] + np.asarray(m.waypoints[0][:2])
                     arrow = {"arrowstyle": "->", "color": "#b71c1c"}
                     ax.annotate("", part.pose[:2, 3], start, arrowprops=arrow)
+        if sample.truth.feasible:  # how the last part of the first order goes in
+            order = next(iter(sample.truth.orders()))
+            last, placed = order[-1], sum(1 << p for p in order[:-1])
+            used = simulator.explain(sample.assembly, placed, last).used
+            move = motions[last][used.motion]
+            if move.kind == "side_slide":
+                end = sample.assembly.parts[last].pose[:2, 3]
+                arrow = {"arrowstyle": "->", "color": "#1565c0", "lw": 1.5}
+                ax.annotate("", end, end + np.asarray(move.waypoints[0][:2]), arrowprops=arrow)
         ax.set_xlabel(f"{caption}\n{_orders_text(sample)}", fontsize=7)
     for ax in list(axes.flat)[len(panels) :]:
         ax.axis("off")
     fig.suptitle(
         "One panel per infeasibility mechanism, labelled by the MuJoCo cell (docs/world.md); "
-        "red arrows: stems sliding into their T-slot joints; hatched: clamps",
+        "red arrows: stems sliding into their T-slot joints; blue: a rung sliding along its "
+        "hosts' grooves; hatched: clamp bases (a toggle clamp's handle stands on the outer half "
+        "of its base once its profile is placed)",
         fontsize=9,
     )
     fig.tight_layout()
@@ -129,8 +133,9 @@ def infeasibility_figure(simulator, path: Path) -> None:
 
 def main() -> None:
     out = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(__file__).parent
+    register()  # the simulator group alone: its schemas live in the simulation layer
     with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
-        cfg = compose("config")
+        cfg = compose("simulator/dual_arm")
     infeasibility_figure(instantiate(cfg.simulator), out / "infeasibility.png")
 
 

@@ -1,9 +1,9 @@
 """Entry point: `python -m grace task=<name> ...` (or `grace ...`) composes the config and runs one
 task. The configs ship inside the package (grace/conf), so this works from any folder.
 
-The command line is checked first (grace/tasks/preflight.py): a user error is one line on
+The command line is checked first (grace/cli/preflight.py): a user error is one line on
 stderr and exit code 2, before Hydra creates the run folder. Ctrl-C and SIGTERM stop the run
-and its worker processes (grace/tasks/signals.py); the same command with
+and its worker processes (grace/cli/signals.py); the same command with
 `paths.output_dir=<the run folder>` resumes it.
 """
 
@@ -13,8 +13,8 @@ import hydra
 from omegaconf import DictConfig
 
 from grace import CONF_DIR
-from grace.tasks.preflight import debugging, preflight, run_dir_overrides, user_errors
-from grace.tasks.signals import EXIT_INTERRUPTED, sigterm_as_interrupt
+from grace.cli.preflight import debugging, preflight, run_dir_overrides, user_errors
+from grace.cli.signals import EXIT_INTERRUPTED, sigterm_as_interrupt
 
 
 # An absolute path: found whether this module runs as __main__ or from the console script.
@@ -22,7 +22,7 @@ from grace.tasks.signals import EXIT_INTERRUPTED, sigterm_as_interrupt
 def run(cfg: DictConfig) -> float | None:
     """One Hydra job: the task of `cfg` (a user error: one line, exit 2)."""
     try:
-        from grace.tasks.runner import run_task  # torch and Lightning: after the checks
+        from grace.cli.runner import run_task  # torch and Lightning: after the checks
 
         with user_errors(debugging(sys.argv[1:]) or bool(cfg.debug)):
             return run_task(cfg)

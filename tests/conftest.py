@@ -10,19 +10,22 @@ into the test's `tmp_path` (`tmp_path/output`, `tmp_path/data`) and HydraConfig 
         run(cfg)  # call the task function directly
 
 Overrides use the command-line syntax, including `~group` to drop a default that a test does not
-need. `fake_simulator` is a config for :class:`FakeSimulator`, a tiny deterministic stand-in
-with the real simulator's interface (generate / label / sample and the same `info` keys), for
-tests of the layers above the simulator that must not depend on its speed or tuning; tests get
-an instance with `hydra.utils.instantiate(fake_simulator)`. Never `import conftest`: every test
-folder's conftest shares that module name, so this module is also registered under the stable
+need. `samples` are small labelled assemblies (FakeSimulator rows plus a frame with a
+bracket) for the model and training tests. `fake_simulator` is a config for
+:class:`FakeSimulator`, a tiny deterministic stand-in with the real simulator's interface
+(generate / label / sample and the same `info` keys), for tests of the layers above the
+simulator that must not depend on its speed or tuning; tests get an instance with
+`hydra.utils.instantiate(fake_simulator)`. Never `import conftest`: every test folder's
+conftest shares that module name, so this module is also registered under the stable
 name `grace_tests_conftest`, which the config's `_target_` uses (worker processes inherit it).
 """
 
 from __future__ import annotations
 
+import json
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -30,13 +33,14 @@ import pytest
 from hydra import compose, initialize_config_dir
 from hydra.core.global_hydra import GlobalHydra
 from hydra.core.hydra_config import HydraConfig
+from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf, open_dict
 
 from grace import CONF_DIR
+from grace.cli.schemas import register_schemas
 from grace.domain.assembly import Assembly, Part, PartType, canonical_order, planar_pose
 from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
-from grace.tasks.schemas import register_schemas
 
 MODULE_ALIAS = "grace_tests_conftest"
 sys.modules[MODULE_ALIAS] = sys.modules[__name__]
@@ -139,3 +143,91 @@ class FakeSimulator:
 def fake_simulator() -> DictConfig:
     """A `simulator` config that instantiates :class:`FakeSimulator`."""
     return OmegaConf.create({"_target_": f"{MODULE_ALIAS}.FakeSimulator", "spacing": 250.0})
+
+
+def bracket_frame() -> LabelledAssembly:
+    """Bar, post and a bracket in their corner; the bracket needs both profiles placed."""
+    assembly = Assembly(
+        (
+            Part("bar", PartType.PROFILE_300, planar_pose(0.0, 0.0, 1)),
+            Part("post", PartType.PROFILE_200, planar_pose(0.0, 120.0)),
+            Part("bracket", PartType.BRACKET, planar_pose(20.0, 20.0)),
+        )
+    )
+    truth = GroundTruth.explore(3, lambda state, part: part != 2 or state == 0b011)
+    return LabelledAssembly(assembly, truth)
+
+
+@pytest.fixture
+def samples(fake_simulator) -> list[LabelledAssembly]:
+    """The bracket frame, five feasible rows of 3–6 parts and one infeasible row."""
+    simulator = instantiate(fake_simulator)
+    rng = np.random.default_rng(0)
+    drawn = [simulator.sample(n, rng) for n in (3, 4, 5, 6) * 8]
+    feasible = [s for s in drawn if s.truth.feasible and s.size > 3][:5]
+    infeasible = [s for s in drawn if not s.truth.feasible][:1]
+    return [bracket_frame(), *feasible, *infeasible]
+
+
+def _size_entry(seq: float, step: float = 1.0, **fields: object) -> dict:
+    """A results.json entry of one test size: sequence and step AUC (std 0.01 and 0), eight
+    feasible test assemblies, and any other `fields`."""
+    return {
+        "folds": 4,
+        "assemblies": 8,
+        "forward_passes": 100,
+        "step_auc": {"mean": step, "std": 0.0},
+        "seq_auc": {"mean": seq, "std": 0.01},
+        "no_sequence": 0,
+        "feasibility": {"confusion": {"tp": 8, "fp": 0, "tn": 0, "fn": 0}},
+        **fields,
+    }
+
+
+@pytest.fixture
+def size_entry() -> Callable[..., dict]:
+    """`size_entry(seq, step=1.0, **fields)`: a results.json entry of one test size, sequence and
+    step AUC (std 0.01 and 0), eight feasible test assemblies, and any other `fields`."""
+    return _size_entry
+
+
+@pytest.fixture
+def results_run() -> Callable[..., Path]:
+    """`write(folder, protocol, train, test, entry, overrides=(), seed=0, baselines=None)`:
+    a run folder holding a results.json whose every test size has `entry` (a dict, or a
+    function of the size) and `.hydra/overrides.yaml`; baselines: name -> entry."""
+
+    def write(
+        folder: Path,
+        protocol: str,
+        train: list[int],
+        test: list[int],
+        entry: dict | Callable[[int], dict],
+        overrides: Sequence[str] = (),
+        seed: int = 0,
+        baselines: dict[str, dict] | None = None,
+    ) -> Path:
+        of = entry if callable(entry) else (lambda size: entry)
+        results = {
+            "protocol": protocol,
+            "train_sizes": train,
+            "test_sizes": test,
+            "folds": 4,
+            "per_size": {str(s): of(s) for s in test},
+            "baselines": {
+                name: {"per_size": {str(s): e for s in test}}
+                for name, e in (baselines or {}).items()
+            },
+            "seconds": 1.0,
+            "seconds_by_stage": {"load": 0.1, "train": [0.4], "evaluate": [0.5]},
+            "run": {"model": "grace_geometric", "seed": seed, "data_seed": 0,
+                    "overrides": list(overrides)},
+        }  # fmt: skip
+        (folder / ".hydra").mkdir(parents=True)
+        (folder / "results.json").write_text(json.dumps(results, indent=2))
+        (folder / ".hydra" / "overrides.yaml").write_text(
+            "".join(f"- {o}\n" for o in overrides) or "[]\n"
+        )
+        return folder
+
+    return write

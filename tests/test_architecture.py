@@ -9,7 +9,7 @@ import pytest
 from omegaconf import OmegaConf
 
 from grace import CONF_DIR
-from grace.tasks.schemas import heavy_schemas
+from grace.cli.schemas import heavy_schemas
 
 PACKAGE = Path(__file__).resolve().parents[1] / "grace"
 
@@ -22,9 +22,12 @@ LAYERS = (
     "planning",
     "evaluation",
     "visualisation",
+    "cli",
     "tasks",
 )
-"""Bottom to top (README, Layout): a module may import its own layer and the ones below."""
+"""Bottom to top (docs/contributing.md, Layout): a module may import its own layer and the ones
+below. `cli` is the command line's machinery (schemas, checks, the runner, folds, the fit built
+from the config); `tasks` holds the entry points only."""
 
 LEAVES = ("grace", "grace.errors")
 """Modules every layer may import; they import nothing of grace themselves."""
@@ -64,9 +67,9 @@ def grace_imports(module: str, path: Path) -> list[tuple[int, str]]:
 
 def test_the_rule_sees_both_kinds_of_import(tmp_path):
     source = tmp_path / "mod.py"
-    source.write_text("import grace.tasks.runner\nfrom ..evaluation import metrics\nimport numpy\n")
+    source.write_text("import grace.cli.runner\nfrom ..evaluation import metrics\nimport numpy\n")
     imports = grace_imports("grace.model.mod", source)
-    assert imports == [(1, "grace.tasks.runner"), (2, "grace.evaluation")]
+    assert imports == [(1, "grace.cli.runner"), (2, "grace.evaluation")]
     assert [layer(name) > layer("grace.model.mod") for _, name in imports] == [True, True]
 
 
@@ -165,3 +168,32 @@ def test_below_the_task_layer_nothing_branches_on_a_config_string(module):
     path = modules()[module]
     found = config_string_branches(ast.parse(path.read_text(), str(path)))
     assert not found, "\n".join(f"{path}:{line}: branches on {value!r}" for line, value in found)
+
+
+TESTS = PACKAGE.parent / "tests"
+
+
+def test_every_task_module_is_a_short_entry_point():
+    """grace/tasks/ holds entry points only: each task config's `run` target, within 200 lines;
+    library logic lives in the layers below."""
+    targets = {OmegaConf.load(p).run._target_ for p in (CONF_DIR / "task").glob("*.yaml")}
+    entry_points = {target.rpartition(".")[0] for target in targets}
+    found = {m for m in modules() if m.startswith("grace.tasks.")}
+    assert found == entry_points, "grace/tasks/ holds a module that no task config runs"
+    long = [f"{modules()[m]}: {n} lines" for m in found if (n := lines(modules()[m])) > 200]
+    assert not long, "\n".join(long)
+
+
+def lines(path: Path) -> int:
+    return len(path.read_text().splitlines())
+
+
+def test_no_other_layer_nor_its_tests_imports_a_task_module():
+    wrong = []
+    sources = {m: p for m, p in modules().items() if not m.startswith("grace.tasks")}
+    tests = {f"tests.{p.stem}": p for p in TESTS.rglob("*.py") if "tasks" not in p.parts}
+    for module, path in {**sources, **tests}.items():
+        for line, name in grace_imports(module, path):
+            if name.startswith("grace.tasks") and module != "grace.__main__":
+                wrong.append(f"{path}:{line}: imports {name}")
+    assert not wrong, "\n".join(wrong)

@@ -1,4 +1,4 @@
-"""One labelled assembly ↔ one JSON record, the unit of the data-set shard files (issue 2).
+"""One labelled assembly ↔ one JSON record, the unit of the data-set shard files.
 
 The record is lossless and compact: parts with name, type and pose; surface relations only where
 they differ from what the poses give (raw imports); the ground-truth DAG; the simulator's info

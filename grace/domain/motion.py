@@ -12,10 +12,13 @@ class Motion:
     """A polyline of part positions relative to the final pose, start first, final pose last.
 
     `waypoints` is a (K, 3) array of translation offsets in world mm; the part keeps its final
-    orientation throughout. A top-down placement is [(0, 0, h), (0, 0, 0)]; a slide along the
-    part's own axis is lowered `travel` mm back along it, then slides into place:
-    [(−d·t, h), (−d·t, 0), (0, 0, 0)] for slide direction d and travel t.
-    `kind` is "top_down" or "slide"; `direction` the unit slide direction in the plane, if any.
+    orientation throughout. A top-down placement is [(0, 0, h), (0, 0, 0)]; a slide is lowered
+    `travel` mm back along its direction, then slides into place:
+    [(−d·t, h), (−d·t, 0), (0, 0, 0)] for slide direction d and travel t. The first waypoint's
+    height h is where the part was carried in at; a descent may pass stops at lower carry
+    heights, [(0, 0, h₂), (0, 0, h₁), (0, 0, 0)], which leave the path as it is.
+    `kind` is "top_down", "slide" (along the part's own axis) or "side_slide" (a stem along its
+    hosts' grooves, across its own axis); `direction` the unit slide direction, if any.
     `joint_blockers` is the bitmask of parts whose T-slot connection with this part the motion
     cannot make once they are placed (docs/world.md, rule "joints").
     """

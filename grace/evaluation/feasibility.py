@@ -29,6 +29,7 @@ from grace.domain.sample import LabelledAssembly
 from grace.evaluation.feasibility_classifier import classifier_scores, pooled_embeddings
 from grace.evaluation.metrics import feasibility_roc, tpr_at_fpr
 from grace.evaluation.report import mean_std
+from grace.evaluation.results import plain
 from grace.planning.counting import best_probability, bottleneck, retrieval_counts
 from grace.planning.sequences import ScoredStates, Scorer, score_states
 
@@ -170,8 +171,8 @@ def feasibility_report(per_fold: Sequence[Mapping[int, dict]]) -> dict:
             if auc is None:
                 continue
             entry[name] = {
-                "roc_auc": auc,
-                "tpr_at_fpr": mean_std([s["tpr_at_fpr"] for s in summaries]),
+                "roc_auc": plain(auc),
+                "tpr_at_fpr": plain(mean_std([s["tpr_at_fpr"] for s in summaries])),
                 "folds": len(curves),
                 "assemblies": sum(s["assemblies"] for s in summaries),
                 "feasible": sum(s["feasible"] for s in summaries),

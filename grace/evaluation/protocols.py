@@ -178,3 +178,23 @@ def training_subset(
     """The assemblies a model trains (and early-stops) on: all, or only the feasible ones for the
     paper's ablation "#sequences, feasible only" (Sec. V-B.3, Fig. 5)."""
     return [s for s in samples if s.truth.feasible or not feasible_only]
+
+
+def split_assemblies(
+    samples: list[LabelledAssembly], test_fraction: float, val_fraction: float, seed: int
+) -> tuple[list[LabelledAssembly], list[LabelledAssembly], list[LabelledAssembly]]:
+    """(train, val, test) split per size, seeded; sizes with ≥ 3 assemblies get a test share."""
+    for name, f in (("test_fraction", test_fraction), ("val_fraction", val_fraction)):
+        if not 0.0 <= f < 1.0:
+            raise UserError(f"task.{name}={f}: use a fraction in [0, 1)")
+    rng = np.random.default_rng(seed)
+    train, val, test = [], [], []
+    for size in sorted({s.size for s in samples}):
+        group = [s for s in samples if s.size == size]
+        order = rng.permutation(len(group))
+        n_test = round(test_fraction * len(group)) if len(group) >= 3 else 0
+        n_val = round(val_fraction * (len(group) - n_test)) if len(group) >= 3 else 0
+        test += [group[i] for i in order[:n_test]]
+        val += [group[i] for i in order[n_test : n_test + n_val]]
+        train += [group[i] for i in order[n_test + n_val :]]
+    return train, val, test

@@ -20,6 +20,10 @@ import numpy as np
 
 from grace.domain.assembly import full_mask
 from grace.domain.orders import GroundTruth
+from grace.domain.sample import LabelledAssembly
+from grace.graphs.assembly_graph import state_flags
+from grace.graphs.datamodule import StateSet, training_states
+from grace.planning.sequences import Scorer
 
 
 def onpath_states(truth: GroundTruth) -> tuple[np.ndarray, np.ndarray]:
@@ -39,3 +43,15 @@ def label_matrix(masks: np.ndarray, n_parts: int) -> np.ndarray:
     """Boolean (len(masks), N) labels from part bitmasks."""
     bits = np.int64(1) << np.arange(n_parts, dtype=np.int64)
     return (np.asarray(masks, dtype=np.int64)[:, None] & bits) != 0
+
+
+def state_scores(scorer: Scorer, samples: list[LabelledAssembly]) -> tuple[np.ndarray, np.ndarray]:
+    """Flat (scores, labels) over the step-AUC test states of `samples` (docs/metrics.md)."""
+    scores, labels = [], []
+    for sample in samples:
+        s, y = training_states(sample, StateSet.orders)
+        scores.append(scorer(sample.assembly, s).ravel())
+        labels.append(state_flags(y, sample.size).numpy().ravel())
+    if not scores:
+        return np.zeros(0), np.zeros(0)
+    return np.concatenate(scores), np.concatenate(labels)

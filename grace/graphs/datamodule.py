@@ -277,7 +277,7 @@ class StateDataset:
 
     def extend(self, extra: Mapping[int, tuple[np.ndarray, np.ndarray]], chunk_size: int) -> None:
         """Add (states, label masks) for samples by index (the states a planner visited, see
-        grace/tasks/dagger.py); they weigh 1 also under step balancing."""
+        grace/cli/dagger_fit.py); they weigh 1 also under step balancing."""
         for i, (s, y) in extra.items():
             self._add(i, s, y, None, chunk_size)
 

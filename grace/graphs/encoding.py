@@ -13,9 +13,9 @@ forks:
   (also as augmentation in training). A permutation relabels ids; the graph itself is unchanged.
 
 Beyond the paper, `part_pe` may encode the part ids differently from the surface ids (null: as
-`pe`). `part_pe: none` is the one-to-many lead of issue 4: trained on A5, a network never sees the
-encodings of part ids 5 and 6 that every A7 graph carries, while the surface ids (which side of a
-part a surface is) stay informative at any size.
+`pe`). `part_pe: none` is a lead for the one-to-many protocol: trained on A5, a network never
+sees the encodings of part ids 5 and 6 that every A7 graph carries, while the surface ids (which
+side of a part a surface is) stay informative at any size.
 """
 
 from __future__ import annotations

@@ -56,7 +56,7 @@ def run_surface_blocks(
     """Surface features (A, S, hidden) after surface blocks `blocks` from input `x`.
 
     Written with as few tensor operations as possible: on CPU a small assembly's cost is the
-    per-operation overhead, not the arithmetic (issue 3: one A7 state in ≤ 1 ms).
+    per-operation overhead, not the arithmetic (one A7 state in ≤ 1 ms: task=bench).
     """
     weights = _norm_weights(dense.surface_mask, x.dtype)
     # Additive attention mask over source surfaces: padding sources get exp(−huge) = 0.

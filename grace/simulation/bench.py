@@ -29,7 +29,8 @@ def reach_coverage(
     cell: RobotCell, half_extent: float = 400.0, step: float = 40.0, approach: float = 60.0
 ) -> float:
     """Share of grid points × both profile orientations in the square work area that at least
-    one arm reaches with a top-down profile grasp along a drop from `approach` mm."""
+    one arm reaches with a top-down profile grasp along a drop from `approach` mm (a carry
+    height)."""
     ticks = np.arange(-half_extent, half_extent + step / 2, step)
     hits = total = 0
     for x in ticks:
@@ -86,9 +87,15 @@ def main() -> None:
     report: dict[str, Any] = {"simulator": name}
     report["sizes"] = [size_benchmark(sim, size, count) for size in sizes]
     if sim.cell.n_arms:
-        report["reach_coverage_400mm"] = reach_coverage(sim.cell)
+        # A lone profile gets the first clamp type: its carry heights are the cell's lowest
+        # (above the bases) and highest (above the tallest clamp solid).
+        lone = Assembly((Part("lone", PartType.PROFILE_200, planar_pose(0.0, 0.0)),))
+        heights = sim.carry_heights(lone)
+        report["reach_coverage_400mm"] = {
+            f"carried_at_{h:g}mm": reach_coverage(sim.cell, approach=h) for h in heights
+        }
         far = Part("far", PartType.PROFILE_200, planar_pose(1500.0, 0.0))
-        report["reachable_at_1500mm"] = _reachable(sim.cell, far, sim.motion.approach_height)
+        report["reachable_at_1500mm"] = _reachable(sim.cell, far, heights[0])
     print(json.dumps(report, indent=2))
 
 

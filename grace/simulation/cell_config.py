@@ -76,20 +76,40 @@ class GripperConfig:
     """How far the fingertips reach below a bracket's top when holding it across a leg."""
 
 
+CLAMP_STATES = ("always", "open", "closed")
+"""When a clamp box stands in the cell: at every step, until its profile is placed (the clamp
+open), or once its profile is placed and the gripper has left (the clamp closed)."""
+
+
+@dataclass
+class ClampBoxConfig:
+    """One solid of a clamp, in the frame of its spot beside the profile (docs/world.md)."""
+
+    when: str = MISSING
+    """One of `CLAMP_STATES`."""
+    along: list[float] = MISSING
+    """[from, to] along the profile, from the clamp's centre line."""
+    out: list[float] = MISSING
+    """[from, to] out from the profile's side face (negative: over the profile)."""
+    z: list[float] = MISSING
+    """[bottom, top] above the table."""
+
+
+@dataclass
+class ClampTypeConfig:
+    """A clamp model: its solids; the first one stands at every step (its base on the plate)."""
+
+    name: str = MISSING
+    boxes: list[ClampBoxConfig] = MISSING
+
+
 @dataclass
 class ClampConfig:
-    """The swing clamp that holds every placed profile down on the fixture plate."""
+    """The fixture's clamps, one per profile (docs/world.md, "The cell")."""
 
-    width: float = MISSING
-    """Body extent along the profile."""
-    depth: float = MISSING
-    """Body extent out from the profile's side."""
-    height: float = MISSING
-    """Body height above the table."""
-    arm_width: float = MISSING
-    """The clamping arm over the profile's top: extent along the profile ..."""
-    arm_thickness: float = MISSING
-    """... and its thickness above the profile's top."""
+    types: list[ClampTypeConfig] = MISSING
+    """The designer's choices in its order of preference: a profile gets the first type whose
+    footprint fits a spot beside it with a finger's room, else the last type on any free spot."""
     grid: float = MISSING
     """Candidate clamp positions along a profile are multiples of this."""
 
@@ -120,8 +140,9 @@ class MotionConfig:
     """Last stretch a profile slides along its own axis into a T-slot joint."""
     slide_lead: float = MISSING
     """A profile sliding onto placed connectors starts this far before the first one it takes."""
-    approach_height: float = MISSING
-    """Height above the table a part is lowered from."""
+    approach_clearance: float = MISSING
+    """A part is carried in above the tallest obstacle of the cell (parts and every clamp solid
+    of the frame's fixture) and lowered from this far above it."""
 
 
 @dataclass
@@ -190,6 +211,15 @@ def check_cell(cfg: CellConfig) -> None:
         raise UserError(
             f"{CONFIG_DIR}/cell: fields 'arm.joint_limits' / 'arm.link_lengths' need 7 / 4 values"
         )
+    for t in cfg.clamp.types:
+        where = f"{CONFIG_DIR}/cell: field 'clamp.types' ({t.name})"
+        if not t.boxes or t.boxes[0].when != "always":
+            raise UserError(f"{where}: the first box must be the base, when: always")
+        for b in t.boxes:
+            if b.when not in CLAMP_STATES:
+                raise UserError(f"{where}: when '{b.when}' is not one of {list(CLAMP_STATES)}")
+            if any(len(v) != 2 or v[0] >= v[1] for v in (b.along, b.out, b.z)):
+                raise UserError(f"{where}: along, out and z need [from, to] with from < to")
     g = cfg.gripper
     if g.palm_width < g.max_opening + 2 * g.finger_thickness:
         raise UserError(

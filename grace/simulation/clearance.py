@@ -94,20 +94,21 @@ def grasp_candidates(part: Part, gripper: GripperConfig, fractions: Sequence[flo
     return grasps
 
 
-def swept_boxes(boxes: np.ndarray, motion: Motion) -> np.ndarray:
-    """Boxes covering `boxes` (at the final pose) carried along every segment of `motion`."""
-    out = []
-    for start, end in motion.segments():
-        lo = np.minimum(boxes[:, 0] + start, boxes[:, 0] + end)
-        hi = np.maximum(boxes[:, 1] + start, boxes[:, 1] + end)
-        out.append(np.stack([lo, hi], axis=1))
-    return np.concatenate(out) if out else boxes.copy()
+def segment_sweeps(boxes: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """Boxes covering `boxes` (…×2×3, at the final pose) carried from each start offset to its
+    end offset (broadcast): per segment, the box spanning the start and end copies."""
+    lo = np.minimum(boxes[..., 0, :] + starts, boxes[..., 0, :] + ends)
+    hi = np.maximum(boxes[..., 1, :] + starts, boxes[..., 1, :] + ends)
+    return np.stack([lo, hi], axis=-2)
+
+
+def segment_samples(start: np.ndarray, end: np.ndarray, step: float) -> np.ndarray:
+    """Offsets (K×3, mm) along one segment, at most `step` apart, both ends included."""
+    n = max(1, math.ceil(np.linalg.norm(end - start) / step))
+    return start + (end - start) * (np.arange(n + 1) / n)[:, None]
 
 
 def tcp_samples(tcp: tuple[float, float, float], motion: Motion, step: float) -> np.ndarray:
     """TCP positions (K×3, mm) along `motion`, at most `step` apart, waypoints included."""
-    points = [np.asarray(motion.waypoints[0], dtype=float)]
-    for start, end in motion.segments():
-        n = max(1, math.ceil(np.linalg.norm(end - start) / step))
-        points.extend(start + (end - start) * (k / n) for k in range(1, n + 1))
-    return np.asarray(tcp) + np.array(points)
+    points = [segment_samples(a, b, step) for a, b in motion.segments()]
+    return np.asarray(tcp) + np.concatenate(points)

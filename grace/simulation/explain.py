@@ -40,7 +40,9 @@ class Block:
     part: int | None
     """The part hit (for a clamp: the part it holds); None for reach and table/self hits."""
     obstacle: str
-    """'part', 'clamp', 'out of reach' or 'table or arm itself'."""
+    """'part', 'clamp' (a solid of part `part`'s clamp: its base, there from the start, what the
+    open clamp holds out, there until `part` is placed, or what closing brings, an arm or a
+    handle, there once `part` is placed), 'out of reach' or 'table or arm itself'."""
 
 
 @dataclass(frozen=True)
@@ -89,14 +91,18 @@ def candidate_blocks(
         blocks.append(Block("arm_links", f"arm {option.arm} links", None, "table or arm itself"))
     for body in BODIES:
         for kind in KINDS:
-            rule = "clamps" if kind == "clamp" else RULE_OF_BODY[body]
+            rule = RULE_OF_BODY[body] if kind == "part" else "clamps"
             if RULE_OF_BODY[body] not in rules or rule not in rules:
                 continue
-            hit = option.masks[category(body, kind)] & placed
+            # A clamp's base stands from the start, its open solids until its part is placed
+            # (its own part's while that part is placed), a part and its closed clamp once placed.
+            standing = {"post": -1, "open": ~placed}.get(kind, placed)
+            hit = option.masks[category(body, kind)] & standing
             name = _BODY_NAMES[body]
-            if body == "held_part" and motion.kind == "slide":
+            if body == "held_part" and motion.kind != "top_down":
                 name = "slide corridor"
-            blocks.extend(Block(rule, name, q, kind) for q in mask_to_parts(hit))
+            obstacle = "part" if kind == "part" else "clamp"
+            blocks.extend(Block(rule, name, q, obstacle) for q in mask_to_parts(hit))
     return tuple(blocks)
 
 

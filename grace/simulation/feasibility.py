@@ -4,8 +4,10 @@ Placing part p when the set S (a bitmask) is placed is feasible iff
 - fixation holds: the first part is a profile (clamped); a later profile touches a part of S; a
   bracket needs one of the two profiles it joins in S (it is fastened to it), and
 - the cell has an option (arm, IK branch, grasp, motion) that is usable (reach: IK within the
-  limits along the motion; arm links: clear of table and itself) and none of whose blocker
-  masks for the active rules meets S.
+  limits along the motion; arm links: clear of table and itself; with the clamps rule, no robot
+  body of an active rule hits a clamp's base, which stands from the start, or its own open
+  clamp), none of whose blocker masks for the active rules meets S, and whose needs (the parts
+  whose open clamps it would hit, there until they are placed) lie in S.
 
 The cell's options are computed once per part with all other parts present, so enumerating the
 reachable states (`GroundTruth.explore_many`) is bitmask work, not N! simulations. Switching a
@@ -121,14 +123,16 @@ class OptionTable:
         )
 
     def blockers(self, rules: Collection[str], relax: str | None = None) -> list[np.ndarray]:
-        """Per part, the minimal blocker masks of its usable options under `rules` (the active
-        ones), with mechanism `relax` lifted."""
+        """Per part, the minimal (blockers, needs) mask pairs (k×2) of its usable options under
+        `rules` (the active ones), with mechanism `relax` lifted: an option is free in state S
+        iff `S & blockers == 0` and `S & needs == needs`."""
         cols = [
             category(body, kind)
             for body in BODIES
             for kind in KINDS
             if RULE_OF_BODY[body] in rules and (kind == "part" or "clamps" in rules)
         ]
+        of_kind = {k: [c for c in cols if KINDS[c % len(KINDS)] == k] for k in KINDS}
         masks = self.masks.copy()
         usable = np.ones(len(self.part), dtype=bool)
         if "reach" in rules and relax != "reach":
@@ -137,11 +141,20 @@ class OptionTable:
             usable &= self.arm_clear
         if relax is not None:
             _relax(masks, relax, self)
-        combined = (
-            np.bitwise_or.reduce(masks[:, cols], axis=1) if cols else np.zeros(len(masks), np.int64)
-        )
+
+        def union(kinds: tuple[str, ...]) -> np.ndarray:
+            picked = [c for k in kinds for c in of_kind[k]]
+            if not picked:
+                return np.zeros(len(masks), np.int64)
+            return np.bitwise_or.reduce(masks[:, picked], axis=1)
+
+        needs = union(("open",))
+        # A clamp's base stands from the start and a part's own open clamp while it is placed:
+        # an option that hits either is unusable in every state.
+        usable &= (union(("post",)) == 0) & ((needs >> self.part) & 1 == 0)
+        pairs = np.stack([union(("part", "clamp")), needs], axis=1)
         n = len(self.is_profile)
-        return [_minimal(combined[usable & (self.part == p)]) for p in range(n)]
+        return [_minimal(pairs[usable & (self.part == p)]) for p in range(n)]
 
 
 def _relax(masks: np.ndarray, mechanism: str, table: OptionTable) -> None:
@@ -169,21 +182,28 @@ def _relax(masks: np.ndarray, mechanism: str, table: OptionTable) -> None:
             masks[:, c] &= ~lift
     elif mechanism == "clamp":
         for body in ("finger", "palm", "held_part"):
-            masks[:, category(body, "clamp")] = 0
+            for kind in KINDS[1:]:
+                masks[:, category(body, kind)] = 0
     elif mechanism == "arm":
         for body in BODIES:
             if body.startswith("arm_"):
-                masks[:, category(body, "part")] = 0
-                masks[:, category(body, "clamp")] = 0
+                for kind in KINDS:
+                    masks[:, category(body, kind)] = 0
 
 
-def _minimal(masks: np.ndarray) -> np.ndarray:
-    """Blocker masks with supersets of another mask dropped (they never decide anything)."""
-    out: list[int] = []
-    for m in sorted(set(masks.tolist()), key=lambda m: (m.bit_count(), m)):
-        if not any(o & m == o for o in out):
-            out.append(m)
-    return np.array(out, dtype=np.int64)
+def _minimal(pairs: np.ndarray) -> np.ndarray:
+    """(blockers, needs) pairs with those dropped that another pair's blockers and needs are
+    both subsets of (they never decide anything)."""
+    out: list[tuple[int, int]] = []
+    rows = {(int(b), int(n)) for b, n in pairs.tolist()}
+    for b, n in sorted(rows, key=lambda r: (r[0].bit_count() + r[1].bit_count(), r)):
+        if not any(ob & b == ob and on & n == on for ob, on in out):
+            out.append((b, n))
+    return np.array(out, dtype=np.int64).reshape(-1, 2)
+
+
+def _same(a: list[np.ndarray], b: list[np.ndarray]) -> bool:
+    return all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
 
 
 def rule_check(
@@ -192,10 +212,12 @@ def rule_check(
     """`can_place(states, part)` for `GroundTruth.explore_many`."""
 
     def can_place(states: np.ndarray, part: int) -> np.ndarray:
-        masks = blockers[part]
-        if not len(masks):
+        pairs = blockers[part]
+        if not len(pairs):
             return np.zeros(len(states), dtype=bool)
-        free = ((states[:, None] & masks[None, :]) == 0).any(axis=1)
+        block, need = pairs[None, :, 0], pairs[None, :, 1]
+        s = states[:, None]
+        free = (((s & block) == 0) & ((s & need) == need)).any(axis=1)
         return free & fixation.holds(states, part) if fixation_on else free
 
     return can_place
@@ -210,17 +232,20 @@ def explore(
 
 
 def nonlocal_block(truth: GroundTruth, fixation: Fixation, blockers: list[np.ndarray]) -> bool:
-    """Some reachable state has a part stopped only by blockers it does not touch."""
+    """Some reachable state has a part stopped only by parts it does not touch (placed ones in
+    its way, or missing ones whose open clamps are)."""
     states, placeable = truth.states, truth.placeable
-    for part, masks in enumerate(blockers):
-        if not len(masks):
+    for part, pairs in enumerate(blockers):
+        if not len(pairs):
             continue
         bit = np.int64(1) << part
         idle = ((states & bit) == 0) & ((placeable & bit) == 0) & fixation.holds(states, part)
         if not idle.any():
             continue
-        local = states[idle] & fixation.touch[part]
-        if ((local[:, None] & masks[None, :]) == 0).any():
+        touch = fixation.touch[part]
+        local = (states[idle] & touch)[:, None]
+        need = pairs[None, :, 1] & touch
+        if (((local & pairs[None, :, 0]) == 0) & ((local & need) == need)).any():
             return True
     return False
 
@@ -236,14 +261,20 @@ def label(
     fixation = Fixation.of(assembly, touch)
     table = OptionTable.build(assembly, options, fixation)
     active = [r for r in RULES if r in rules]
-    check = rule_check(fixation, table.blockers(active), "fixation" in active)
-    truth = GroundTruth.explore_many(n, check)
+    blockers = table.blockers(active)
+    truth = GroundTruth.explore_many(n, rule_check(fixation, blockers, "fixation" in active))
     fixed = GroundTruth.explore_many(n, fixation.holds, naive_checks=False)
-    decisive = [
-        r
-        for r in active
-        if not explore(n, fixation, table, [x for x in active if x != r]).same_orders(truth)
-    ]
+
+    def decides(rule: str) -> bool:
+        rest = [x for x in active if x != rule]
+        other = table.blockers(rest)
+        # A rule that changes no part's blocker masks cannot change the orders: skip its search.
+        if rule != "fixation" and _same(other, blockers):
+            return False
+        check = rule_check(fixation, other, "fixation" in rest)
+        return not GroundTruth.explore_many(n, check, naive_checks=False).same_orders(truth)
+
+    decisive = [r for r in active if decides(r)]
     info: dict[str, Any] = {
         "cause": None,
         "mechanisms": [],
@@ -255,7 +286,7 @@ def label(
     }
     if truth.feasible:
         info["robot_pruned"] = info["orders"] < info["fixation_orders"]
-        info["nonlocal_block"] = nonlocal_block(truth, fixation, table.blockers(active))
+        info["nonlocal_block"] = nonlocal_block(truth, fixation, blockers)
         return LabelledAssembly(assembly, truth, info)
     if not fixed.feasible:
         info["cause"] = "other"
@@ -263,7 +294,15 @@ def label(
         info["cause"] = "collision"
     else:
         info["cause"] = "reach"
-    found = [m for m in MECHANISMS if explore(n, fixation, table, active, relax=m).feasible]
+
+    def lifts(mechanism: str) -> bool:
+        relaxed = table.blockers(active, mechanism)
+        if _same(relaxed, blockers):  # nothing of it blocks here: still infeasible
+            return False
+        check = rule_check(fixation, relaxed, "fixation" in active)
+        return GroundTruth.explore_many(n, check, naive_checks=False).feasible
+
+    found = [m for m in MECHANISMS if lifts(m)]
     info["mechanisms"] = found or ["compound"]
     return LabelledAssembly(assembly, truth, info)
 

@@ -6,10 +6,12 @@ groove, from the profile's end, or through the groove's mouth while the part car
 pushed in horizontally; never vertically through the groove's lips. Hence:
 
 - a stem (a profile whose end meets another's long side) placed after its host slides its last
-  stretch along its own axis into the joint; it cannot be lowered onto a placed host;
+  stretch along its own axis into the joint, or slides sideways along the host's groove,
+  entering it from an open end (`side_slides`); it cannot be lowered onto a placed host;
 - a host placed after stems or brackets fastened to its side slides along its own axis until
   every such connector has entered its groove from the leading end;
-- a profile joined at both ends cannot slide into one host while the other is placed.
+- a profile joined at both ends cannot slide along its axis into one host while the other is
+  placed; sideways it enters both grooves at once.
 
 A motion records, as `joint_blockers`, the placed parts whose connection it cannot make.
 Everything works on table footprints (`Part.footprint_boxes`, docs/assembly-graph.md), in mm.
@@ -17,8 +19,9 @@ Everything works on table footprints (`Part.footprint_boxes`, docs/assembly-grap
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from itertools import combinations
 
 import numpy as np
 
@@ -128,17 +131,22 @@ def end_joints(parts: Sequence[Part], tolerance: float = 0.5) -> list[EndJoint]:
 @dataclass(frozen=True)
 class Connector:
     """A connector of part `partner` in the groove of profile `profile`, at `along` mm from the
-    profile's centre along its axis, spanning `half_span` mm either side."""
+    profile's centre along its axis, spanning `half_span` mm either side, in the groove of the
+    long side `side` (+1 or −1 along the profile's normal (−u_y, u_x), u = `axis_of`)."""
 
     profile: int
     partner: int
     along: float
     half_span: float
+    side: int
 
 
 def connectors(parts: Sequence[Part], tolerance: float = 0.5) -> list[Connector]:
     """Every connector in a profile's side groove: stem ends and bracket legs."""
-    out = [Connector(j.host, j.part, j.along, HALF) for j in end_joints(parts, tolerance)]
+    out = [
+        Connector(j.host, j.part, j.along, HALF, _side(parts[j.host], -np.asarray(j.direction)))
+        for j in end_joints(parts, tolerance)
+    ]
     for b, bracket in enumerate(parts):
         if bracket.type.is_profile:
             continue
@@ -147,10 +155,17 @@ def connectors(parts: Sequence[Part], tolerance: float = 0.5) -> list[Connector]
                 continue
             if parts_contact(bracket, profile, tolerance) < BRACKET_LEG_MM - tolerance:
                 continue
-            leg = [box for box in bracket.footprint_boxes() if _along_axis(box, profile)]
-            lo, hi = _extent_along(leg[0], profile)
-            out.append(Connector(p, b, (lo + hi) / 2, (hi - lo) / 2))
+            leg = next(box for box in bracket.footprint_boxes() if _along_axis(box, profile))
+            lo, hi = _extent_along(leg, profile)
+            middle = np.array([leg[0] + leg[2], leg[1] + leg[3]]) / 2 - np.asarray(profile.xy)
+            out.append(Connector(p, b, (lo + hi) / 2, (hi - lo) / 2, _side(profile, middle)))
     return out
+
+
+def _side(profile: Part, offset: np.ndarray) -> int:
+    """Which long side of `profile` (±1 along its normal) the world vector `offset` points to."""
+    u = axis_of(profile)
+    return 1 if float(offset @ np.array([-u[1], u[0]])) > 0 else -1
 
 
 def _along_axis(box: Box, profile: Part) -> bool:
@@ -167,33 +182,60 @@ def _extent_along(box: Box, profile: Part) -> tuple[float, float]:
     return float(values.min()), float(values.max())
 
 
+def _bits(parts: Iterable[int]) -> int:
+    return sum(1 << p for p in set(parts))
+
+
+Way = tuple[str, np.ndarray | None, float, int]
+"""A motion's shape: kind, slide direction (None: top-down), travel, joint blockers."""
+
+
+def lowered(
+    kind: str,
+    direction: np.ndarray | None,
+    travel: float,
+    heights: Sequence[float],
+    blockers: int = 0,
+) -> Motion:
+    """Carried in at the last of `heights` (ascending), lowered `travel` mm back along
+    `direction` (top-down: straight onto its pose), then slid along it into the final pose.
+    The lower heights are stops on the way down: the path is the same, and the segments it
+    shares with a part carried in lower are the same (the cell sweeps them once)."""
+    back = np.zeros(2) if direction is None else -np.asarray(direction, dtype=float) * travel
+    column = [[back[0], back[1], h] for h in reversed(heights)]
+    rest = [[0.0, 0.0, 0.0]] if direction is None else [[back[0], back[1], 0.0], [0.0, 0.0, 0.0]]
+    towards = None if direction is None else (float(direction[0]), float(direction[1]))
+    return Motion(kind, np.array(column + rest), towards, blockers)
+
+
 def insertion_motions(
     assembly: Assembly,
     slide_length: float,
     slide_lead: float,
-    approach_height: float,
+    carry_heights: Sequence[float],
     tolerance: float = 0.5,
 ) -> list[list[Motion]]:
-    """Candidate motions per part with the connections each cannot make (module docstring).
+    """Candidate motions per part with the connections each cannot make (module docstring),
+    each once per height in `carry_heights` (ascending) the part may be carried in at.
 
     A bracket is lowered top-down (its connectors are pushed into the groove through the mouth).
     A profile may be lowered top-down, which connects nothing, or slide along its axis either
     way: by `slide_length`, and by as far as each connector on its side needs to be taken in
-    from the leading end plus `slide_lead`.
+    from the leading end plus `slide_lead`. A stem may also slide sideways along its hosts'
+    grooves (`side_slides`).
     """
     parts = assembly.parts
     joints = end_joints(parts, tolerance)
     grooves = connectors(parts, tolerance)
-    drop = np.array([[0.0, 0.0, approach_height], [0.0, 0.0, 0.0]])
     out: list[list[Motion]] = []
     for i, part in enumerate(parts):
         if not part.type.is_profile:
-            out.append([Motion("top_down", drop)])
+            out.append(_per_height([("top_down", None, 0.0, 0)], carry_heights))
             continue
         mine = [c for c in grooves if c.profile == i]
         hosts = {j.direction: j.host for j in joints if j.part == i}
-        partners = sum(1 << c.partner for c in mine) | sum(1 << h for h in hosts.values())
-        motions = [Motion("top_down", drop, None, partners)]
+        partners = _bits(c.partner for c in mine) | _bits(hosts.values())
+        ways: list[Way] = [("top_down", None, 0.0, partners)]
         u = axis_of(part)
         for sign in (1.0, -1.0):
             d = u * sign
@@ -205,10 +247,73 @@ def insertion_motions(
             for travel in travels:
                 missed = sum(1 << q for q, v in need.items() if v + slide_lead > travel + 1e-6)
                 blockers = missed | (1 << behind if behind is not None else 0)
-                back = -d * travel
-                waypoints = np.array(
-                    [[back[0], back[1], approach_height], [back[0], back[1], 0.0], [0, 0, 0.0]]
-                )
-                motions.append(Motion("slide", waypoints, (float(d[0]), float(d[1])), blockers))
-        out.append(motions)
+                ways.append(("slide", d, travel, blockers))
+        ways += side_slides(i, parts, joints, grooves, slide_lead)
+        out.append(_per_height(ways, carry_heights))
     return out
+
+
+def _per_height(ways: list[Way], heights: Sequence[float]) -> list[Motion]:
+    return [
+        lowered(*way[:3], heights[: k + 1], way[3]) for k in range(len(heights)) for way in ways
+    ]
+
+
+def side_slides(
+    stem: int,
+    parts: Sequence[Part],
+    joints: Sequence[EndJoint],
+    grooves: Sequence[Connector],
+    slide_lead: float,
+) -> list[Way]:
+    """A stem's slides along its hosts' grooves, entering from an open end (docs/world.md).
+
+    The hosts of a stem (one per joined end) are parallel, so one slide can take the stem's end
+    connectors into both grooves. For each end it may enter from and each set H of hosts it
+    enters: the stem is lowered `slide_lead` beyond the farthest end of H and slides to its
+    pose. It cannot be made once a host outside H is placed (the connector would start inside
+    that groove), nor once a part closes the entered end of a host of H (a profile whose side
+    covers it: the groove's end cap), a connector lies in that groove between the end and the
+    stem, or a connector sits in the stem's own grooves (it would have to enter across them).
+    """
+    mine = _bits(c.partner for c in grooves if c.profile == stem)
+    ends = [j for j in joints if j.part == stem]
+    if not ends:
+        return []
+    w = np.abs(axis_of(parts[ends[0].host]))  # the world axis all its hosts' grooves run along
+    at = float(np.asarray(parts[stem].xy) @ w)
+    out = []
+    for s in (1, -1):
+        entry = {}  # host → (travel to clear its end + lead, what closes that way in)
+        for j in ends:
+            host = parts[j.host]
+            centre = float(np.asarray(host.xy) @ w)
+            end = centre + s * host.type.length / 2
+            travel = s * (end - at) + HALF + slide_lead
+            flip = float(axis_of(host) @ w)  # +1 if the host's axis points along w
+            side = _side(host, np.asarray(parts[stem].xy) - np.asarray(host.xy))
+            lo, hi = sorted((at, end))
+            in_path = [
+                c.partner
+                for c in grooves
+                if c.profile == j.host
+                and c.partner != stem
+                and c.side == side
+                and min(hi, centre + flip * c.along + c.half_span)
+                - max(lo, centre + flip * c.along - c.half_span)
+                > 0
+            ]
+            cap = [e.host for e in joints if e.part == j.host and e.direction == _key(w * s)]
+            entry[j.host] = (travel, _bits(in_path) | _bits(cap))
+        for k in range(1, len(entry) + 1):
+            for taken in combinations(sorted(entry), k):
+                travel = max(entry[h][0] for h in taken)
+                blockers = mine | _bits(h for h in entry if h not in taken)
+                for h in taken:
+                    blockers |= entry[h][1]
+                out.append(("side_slide", -w * s, travel, blockers))
+    return out
+
+
+def _key(v: np.ndarray) -> tuple[int, int]:
+    return (round(float(v[0])), round(float(v[1])))

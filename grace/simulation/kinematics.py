@@ -81,7 +81,9 @@ class IiwaArm:
         radial = np.hypot(vx, vy)
         cos4 = (radial**2 + height**2 - l2**2 - l3**2) / (2 * l2 * l3)
         exists = np.abs(cos4) <= 1.0
-        shoulder, elbow, wrist = _SIGNS
+        # The A5 = π twins (odd branches) are solved only if A5's limit lets them be.
+        twins = self.limits[4] >= np.pi
+        shoulder, elbow, wrist = _SIGNS if twins else _SIGNS[:, ::2]
         q1 = _wrap(np.arctan2(vy, vx) + np.where(shoulder > 0, 0.0, np.pi))
         q4 = elbow * np.arccos(np.clip(cos4, -1.0, 1.0))
         q2 = np.arctan2(shoulder * radial, height) - np.arctan2(
@@ -97,7 +99,12 @@ class IiwaArm:
         q7 = (-(yaw - self.base_yaw - q1) + np.pi / 2) % np.pi - np.pi / 2
         q = np.stack(np.broadcast_arrays(q1, q2, np.zeros_like(q1), q4, q5, q6, q7), axis=-1)
         ok = exists & np.all(np.abs(q) <= self.limits, axis=-1)
-        return q, ok
+        if twins:
+            return q, ok
+        q_all = np.zeros((N_BRANCHES, *q.shape[1:]))
+        ok_all = np.zeros((N_BRANCHES, ok.shape[1]), dtype=bool)
+        q_all[::2], ok_all[::2] = q, ok
+        return q_all, ok_all
 
     def link_points(self, q: np.ndarray) -> np.ndarray:
         """Joint centres (…×5×3, m) of the configurations `q` (…×7, A3 = 0, tool pointing down):

@@ -17,8 +17,8 @@ from grace.simulation.cell_config import CellConfig
 
 MM = 1e-3
 PART_BIT, TABLE_BIT, TOOL_BIT = 1, 2, 4
-SLOTS_PER_PART = 4
-"""A part's boxes (two for a bracket) and its clamp's (body and arm)."""
+PART_BOXES = 2
+"""A part's boxes (two for a bracket); its clamp's solids come on top."""
 TOOL_BOXES = ("finger0", "finger1", "palm", "held0", "held1")
 LINKS = ("column", "upper", "forearm", "wrist")
 PARK = 100.0
@@ -31,7 +31,8 @@ def arm_bit(arm: int) -> int:
 
 
 def part_slot_count(cfg: CellConfig) -> int:
-    return SLOTS_PER_PART * cfg.max_parts
+    """Box slots for `max_parts` parts with the largest clamp type each."""
+    return (PART_BOXES + max(len(t.boxes) for t in cfg.clamp.types)) * cfg.max_parts
 
 
 def park_position(kind: int, index: int) -> np.ndarray:

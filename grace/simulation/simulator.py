@@ -23,7 +23,7 @@ from grace.simulation.cell_config import CONFIG_DIR, RULES, MotionConfig, typed
 from grace.simulation.explain import Verdict, explain
 from grace.simulation.generator import StructureGenerator
 from grace.simulation.joints import insertion_motions, touching
-from grace.simulation.robot_cell import CellPose, RobotCell
+from grace.simulation.robot_cell import CellPose, RobotCell, Scene
 
 
 class Simulator:
@@ -57,25 +57,34 @@ class Simulator:
     def generate(self, n_parts: int, rng: np.random.Generator) -> Assembly:
         return self.generator.generate(n_parts, rng)
 
-    def motions(self, assembly: Assembly) -> list[list[Motion]]:
-        """Candidate motions per part (joints.insertion_motions with this config)."""
+    def carry_heights(self, assembly: Assembly, scene: Scene | None = None) -> list[float]:
+        """Heights (mm) a part may be carried in at and lowered from: `approach_clearance` above
+        each kind of obstacle (`Scene.carry_heights`); a height is usable while nothing taller
+        stands in the cell."""
+        scene = scene or self.cell.scene(assembly)
+        return scene.carry_heights(self.motion.approach_clearance)
+
+    def motions(self, assembly: Assembly, scene: Scene | None = None) -> list[list[Motion]]:
+        """Candidate motions per part (joints.insertion_motions with this config), each from
+        every carry height."""
         m = self.motion
-        return insertion_motions(
-            assembly, m.slide_length, m.slide_lead, m.approach_height, self.tolerance
-        )
+        heights = self.carry_heights(assembly, scene)
+        return insertion_motions(assembly, m.slide_length, m.slide_lead, heights, self.tolerance)
 
     def label(self, assembly: Assembly) -> LabelledAssembly:
         """All feasible orders of `assembly` and the diagnostics of feasibility.label."""
         start = time.perf_counter()
         scene = self.cell.scene(assembly)
-        motions = self.motions(assembly)
+        motions = self.motions(assembly, scene)
         options = [self.cell.part_options(scene, p, motions[p]) for p in range(assembly.n_parts)]
         sample = feasibility.label(
             assembly, options, touching(assembly, self.tolerance), self.rules
         )
-        # Clamp bodies' footprints (x0, y0, x1, y1 mm) per part, for pictures; [] = no clamp.
+        # Clamp bases' footprints (x0, y0, x1, y1 mm) per part, for pictures; [] = no clamp.
         sample.info["clamps"] = [
-            [round(float(v), 1) for v in (*c[0, 0, :2], *c[0, 1, :2])] if len(c) else []
+            [round(float(v), 1) for v in (*c.boxes[0, 0, :2], *c.boxes[0, 1, :2])]
+            if len(c.boxes)
+            else []
             for c in scene.clamps
         ]
         sample.info["seconds"] = time.perf_counter() - start

@@ -21,7 +21,6 @@ Writes `bench.json` into the run's output folder and returns the fast/PyG traini
 from __future__ import annotations
 
 import logging
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -30,18 +29,16 @@ import torch
 from hydra.utils import instantiate
 from omegaconf import MISSING, DictConfig
 
+from grace.cli.runner import TaskSettings
 from grace.data.atomic import strict_json, write_json_atomic
-from grace.domain.sample import LabelledAssembly
 from grace.evaluation.baselines import BASELINES
-from grace.evaluation.evaluate import evaluate_by_size
-from grace.graphs.datamodule import AssemblyBatchSampler, StateDataset, merge_chunks
+from grace.evaluation.bench import evaluate_ms_per_assembly
+from grace.graphs.datamodule import StateDataset
+from grace.model.bench import feasible_assemblies, infer_ms_per_state, train_graphs_per_s
 from grace.model.grace_pyg import count_parameters
 from grace.model.impls import FastImpl, NetImpl, PygImpl
-from grace.model.module import GraceModule
 from grace.model.scoring import make_scorer
 from grace.planning.bench import planner_benchmark
-from grace.planning.sequences import Scorer
-from grace.tasks.runner import TaskSettings
 
 log = logging.getLogger(__name__)
 
@@ -61,88 +58,13 @@ class BenchSettings(TaskSettings):
     prefix_passes: int = MISSING
 
 
-def bench_assemblies(
-    cfg: DictConfig, size: int, rng: np.random.Generator
-) -> list[LabelledAssembly]:
-    """`task.assemblies` feasible assemblies of `size` from the configured simulator."""
-    simulator = instantiate(cfg.simulator)
-    out: list[LabelledAssembly] = []
-    for _ in range(50 * int(cfg.task.assemblies)):
-        sample = simulator.sample(size, rng)
-        if sample.truth.feasible:
-            out.append(sample)
-        if len(out) == int(cfg.task.assemblies):
-            return out
-    raise RuntimeError(f"bench: the simulator gave too few feasible A{size} assemblies")
-
-
-def _batches(dataset: StateDataset, batch_size: int) -> list[list[int]]:
-    """The training sampler's batches in chunk order, without a short last one (timed steps
-    should all hold ≈`batch_size` states)."""
-    sizes = dataset.chunk_sizes()
-    packed = AssemblyBatchSampler(sizes, batch_size, shuffle=False, seed=0)
-    batches = [b for b in packed if sum(sizes[k] for k in b) >= batch_size]
-    if not batches:
-        raise RuntimeError("bench: too few states for one training batch; raise task.assemblies")
-    return batches
-
-
-def train_graphs_per_s(
-    module: GraceModule, dataset: StateDataset, batch_size: int, steps: int
-) -> float:
-    """State graphs per second of full training steps (collate, forward, backward, Adam).
-
-    The median over steps: the machine is shared, and one preempted step should not decide.
-    """
-    optimiser = torch.optim.Adam(module.parameters(), lr=1e-4)
-    module.train()
-    batches = _batches(dataset, batch_size)
-    rates = []
-    for step in range(steps + 1):
-        items = [dataset[k] for k in batches[step % len(batches)]]
-        start = time.perf_counter()
-        batch = merge_chunks(dataset, module.impl.collate, items)
-        loss = module.loss(batch, module(batch))
-        optimiser.zero_grad()
-        loss.backward()
-        optimiser.step()
-        if step:  # the first step warms up allocators and lazy initialisation
-            rates.append(batch.n_states / (time.perf_counter() - start))
-    return float(np.median(rates))
-
-
-def infer_ms_per_state(
-    module: GraceModule, samples: list[LabelledAssembly], impl: NetImpl, calls: int, warm: bool
-) -> float:
-    """Median milliseconds per single-state scorer call on the non-final states of `samples`."""
-    pairs = [(s.assembly, int(st)) for s in samples for st in s.truth.states[:-1]]
-    scorer = make_scorer(module, impl)
-    for assembly, state in pairs[:3]:
-        scorer(assembly, np.array([state]))
-    times = []
-    for k in range(calls):
-        assembly, state = pairs[k % len(pairs)]
-        if not warm:
-            scorer.clear()
-        start = time.perf_counter()
-        scorer(assembly, np.array([state]))
-        times.append(time.perf_counter() - start)
-    return 1000.0 * float(np.median(times))
-
-
-def evaluate_ms_per_assembly(scorer: Scorer, samples: list[LabelledAssembly]) -> float:
-    """Milliseconds per assembly of one policy's whole evaluation on `samples`."""
-    start = time.perf_counter()
-    evaluate_by_size(scorer, samples)
-    return 1000.0 * (time.perf_counter() - start) / len(samples)
-
-
 def run(cfg: DictConfig) -> float:
     out_dir = Path(cfg.paths.output_dir)
     rng = np.random.default_rng(int(cfg.seed))
     train_size, infer_size = int(cfg.task.train_size), int(cfg.task.infer_size)
-    train = bench_assemblies(cfg, train_size, rng)
-    infer = bench_assemblies(cfg, infer_size, rng)
+    simulator, count = instantiate(cfg.simulator), int(cfg.task.assemblies)
+    train = feasible_assemblies(simulator, train_size, count, rng)
+    infer = feasible_assemblies(simulator, infer_size, count, rng)
     module = instantiate(cfg.model)
     torch.set_num_threads(int(cfg.threads))
     batch_size = int(cfg.datamodule.batch_size)

@@ -12,33 +12,35 @@ from __future__ import annotations
 
 import logging
 import math
-import os
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import torch
 from hydra.utils import instantiate
-from joblib import Parallel, delayed
-from lightning.pytorch import seed_everything
 from omegaconf import MISSING, DictConfig, OmegaConf
-from tqdm.contrib.logging import logging_redirect_tqdm
+from pydantic import TypeAdapter
 
+from grace.cli.folds import protocol_folds, run_folds, start_fold
+from grace.cli.progress import FoldReporter
+from grace.cli.runner import TaskSettings, task_overrides
 from grace.domain.sample import LabelledAssembly
 from grace.evaluation.analysis import write_analysis
 from grace.evaluation.baselines import BASELINES
 from grace.evaluation.collapse import fold_health
 from grace.evaluation.evaluate import evaluate_by_size
 from grace.evaluation.feasibility import add_schemes, embedding_schemes
-from grace.evaluation.protocols import Fold, make_folds, protocol_sizes, training_subset
-from grace.evaluation.report import aggregate, write_results
+from grace.evaluation.protocols import Fold, training_subset
+from grace.evaluation.report import aggregate, mean_curves, write_results
+from grace.evaluation.results import (
+    ExperimentResults,
+    FoldHealth,
+    PolicyResults,
+    RunInfo,
+    StageSeconds,
+)
 from grace.planning.sequences import Scorer
-from grace.tasks.logs import log_to_file
-from grace.tasks.progress import ExperimentProgress, FoldReporter
-from grace.tasks.runner import TaskSettings, task_overrides
 from grace.visualisation.analysis import draw_analysis
 from grace.visualisation.plots import p_at_k_bars, pr_curves
 from grace.visualisation.recording import write_recording
@@ -61,33 +63,6 @@ class ExperimentSettings(TaskSettings):
     recording: RecordingSettings = field(default_factory=RecordingSettings)  # sequences.rrd
 
 
-def _mean_curves(per_fold: list[dict[int, dict]]) -> dict[str, dict]:
-    """Fold-mean PR curve per size (all folds share the λ grid, so points align)."""
-    out = {}
-    for size in sorted({s for fold in per_fold for s in fold}):
-        curves = [f[size]["curve"] for f in per_fold if size in f and f[size]["curve"]["recall"]]
-        if curves:
-            out[str(size)] = {
-                key: np.mean([c[key] for c in curves], axis=0).tolist()
-                for key in ("recall", "precision")
-            }
-    return out
-
-
-def _folds(cfg: DictConfig, sizes: list[int]) -> tuple[list[int], list[int], list[Fold]]:
-    proto = cfg.protocol
-    train_sizes, test_sizes = protocol_sizes(
-        proto.name,
-        sizes,
-        OmegaConf.to_object(proto.train_sizes) if proto.train_sizes is not None else None,
-        OmegaConf.to_object(proto.test_sizes) if proto.test_sizes is not None else None,
-        list(proto.train_exclude),
-        list(proto.test_exclude),
-    )
-    folds = make_folds(sizes, train_sizes, test_sizes, proto.folds, proto.val_fraction, proto.seed)
-    return train_sizes, test_sizes, folds
-
-
 def _policies(cfg: DictConfig, module: object, fold: Fold) -> dict[str, Scorer]:
     """GRACE from the trained module plus every baseline of `task.baselines`, seeded per fold."""
     unknown = sorted(set(cfg.task.baselines) - set(BASELINES))
@@ -107,16 +82,6 @@ class FoldResult:
     evaluate_s: float
     health: dict
     records: list[SequenceRecord]
-
-
-def start_fold(cfg: DictConfig, fold: Fold, threads: int, parent: int) -> None:
-    """What every fold does first, in whichever process runs it: seed by `seed + fold index`
-    (so a fold's result does not depend on which folds ran before it or where), cap the threads,
-    and in a worker process (not `parent`) send all messages to the run's log file."""
-    if os.getpid() != parent:
-        log_to_file(cfg.paths.log_file, f"fold {fold.index}")
-    seed_everything(int(cfg.seed) + fold.index, workers=True, verbose=False)
-    torch.set_num_threads(threads)
 
 
 def run_fold(
@@ -176,92 +141,48 @@ def run_fold(
     return FoldResult(metrics, train_s, evaluate_s, {"fold": fold.index, **health}, records)
 
 
-def portable(cfg: DictConfig) -> DictConfig:
-    """A copy of `cfg` that worker processes can use: they have no Hydra runtime, so the one key
-    that reads it (`paths.output_dir`) is resolved; the other interpolations stay live."""
-    out = OmegaConf.create(OmegaConf.to_container(cfg, resolve=False))
-    out.paths.output_dir = str(Path(cfg.paths.output_dir).absolute())
-    if "trainer" in out:  # the experiment shows each fold's progress itself (progress.py)
-        out.trainer.enable_progress_bar = False
-    return out
-
-
-def _run_folds(
-    cfg: DictConfig,
-    data: list[LabelledAssembly],
-    folds: list[Fold],
-    fold_fn: Callable[..., Any] | None = None,
-) -> list:
-    """`fold_fn` (default run_fold, same arguments) on all folds, `task.fold_jobs` at a time in
-    separate processes (joblib), threads split."""
-    jobs = max(1, min(int(cfg.task.fold_jobs), len(folds)))
-    threads = max(1, int(cfg.threads) // jobs)
-    cfg = portable(cfg)
-    with ExperimentProgress(len(folds)) as progress, logging_redirect_tqdm():
-        tasks = (
-            delayed(fold_fn or run_fold)(
-                cfg,
-                fold,
-                [data[i] for i in fold.train],
-                [data[i] for i in fold.val],
-                [data[i] for i in fold.test],
-                threads,
-                progress.reporter(fold.index),
-                os.getpid(),
-            )
-            for fold in folds
-        )
-        # Processes, never threads: folds seed the global RNGs, which threads would share.
-        return list(Parallel(n_jobs=jobs, backend="loky")(tasks))
-
-
 def run(cfg: DictConfig) -> float:
     """Run the experiment of `cfg.protocol`; return the mean sequence AUC of GRACE."""
     start = time.perf_counter()
     out_dir = Path(cfg.paths.output_dir)
     data = instantiate(cfg.dataset).load()
-    train_sizes, test_sizes, folds = _folds(cfg, [sample.size for sample in data])
+    train_sizes, test_sizes, folds = protocol_folds(cfg, [sample.size for sample in data])
     load_s = time.perf_counter() - start
-    fold_results = _run_folds(cfg, data, folds)
+    fold_results = run_folds(cfg, data, folds, run_fold)
     per_fold = {name: [r.metrics[name] for r in fold_results] for name in fold_results[0].metrics}
     train_s = [r.train_s for r in fold_results]
     evaluate_s = [r.evaluate_s for r in fold_results]
     per_size = aggregate(per_fold["GRACE"])
-    baselines = {b: {"per_size": aggregate(per_fold[b])} for b in cfg.task.baselines}
-    health = [r.health for r in fold_results]
-    results = {
-        "protocol": cfg.protocol.name,
-        "train_sizes": train_sizes,
-        "test_sizes": test_sizes,
-        "folds": len(folds),
-        "per_size": per_size,
-        "baselines": baselines,
-        "seconds": time.perf_counter() - start,
-        "seconds_by_stage": {"load": load_s, "train": train_s, "evaluate": evaluate_s},
-        "collapsed_folds": [h["fold"] for h in health if h["collapsed"]],
-        "fold_health": health,
-        "run": {
-            "model": OmegaConf.select(cfg, "model.name"),
-            "seed": cfg.seed,
-            "data_seed": OmegaConf.select(cfg, "dataset.seed"),  # None for raw data
-            "overrides": task_overrides(),
-        },
-    }
+    baselines = {b: PolicyResults(aggregate(per_fold[b])) for b in cfg.task.baselines}
+    health = TypeAdapter(list[FoldHealth]).validate_python([r.health for r in fold_results])
+    results = ExperimentResults(
+        protocol=cfg.protocol.name,
+        train_sizes=train_sizes,
+        test_sizes=test_sizes,
+        folds=len(folds),
+        per_size=per_size,
+        baselines=baselines,
+        seconds=time.perf_counter() - start,
+        seconds_by_stage=StageSeconds(load_s, train_s, evaluate_s),
+        collapsed_folds=[h.fold for h in health if h.collapsed],
+        fold_health=health,
+        run=RunInfo(
+            model=OmegaConf.select(cfg, "model.name"),
+            seed=cfg.seed,
+            data_seed=OmegaConf.select(cfg, "dataset.seed"),  # None for raw data
+            overrides=task_overrides(),
+        ),
+    )
     write_results(results, out_dir)
     draw_analysis(write_analysis(per_fold["GRACE"], out_dir), out_dir)
-    pr_curves({name: _mean_curves(f) for name, f in per_fold.items()}, out_dir / "pr_curves.png")
-    p_at_k_bars(
-        {"GRACE": per_size, **{b: baselines[b]["per_size"] for b in baselines}},
-        out_dir / "p_at_k.png",
-    )
+    pr_curves({name: mean_curves(f) for name, f in per_fold.items()}, out_dir / "pr_curves.png")
+    p_at_k_bars(results.policies(), out_dir / "p_at_k.png")
     records = [record for r in fold_results for record in r.records]
     if records:
         write_recording(records, out_dir / "sequences.rrd", out_dir.name)
-    seq = [entry["seq_auc"]["mean"] for entry in per_size.values() if "seq_auc" in entry]
+    seq = [entry.seq_auc.mean for entry in per_size.values() if entry.seq_auc is not None]
     objective = float(np.mean(seq)) if seq else math.nan
-    if results["collapsed_folds"]:
-        log.warning(
-            "collapsed folds %s: see fold_health in results.json", results["collapsed_folds"]
-        )
+    if results.collapsed_folds:
+        log.warning("collapsed folds %s: see fold_health in results.json", results.collapsed_folds)
     log.info("mean sequence AUC %.4f, results in %s", objective, out_dir)
     return objective

@@ -21,7 +21,10 @@ from typing import Any
 import numpy as np
 from hydra.utils import instantiate
 from omegaconf import MISSING, DictConfig
+from pydantic import TypeAdapter
 
+from grace.cli.folds import protocol_folds, run_folds, start_fold
+from grace.cli.progress import FoldReporter
 from grace.data.atomic import write_json_atomic, write_text_atomic
 from grace.domain.sample import LabelledAssembly
 from grace.evaluation.baselines import constant_scorer
@@ -34,9 +37,9 @@ from grace.evaluation.feasibility import (
 )
 from grace.evaluation.protocols import Fold, training_subset
 from grace.evaluation.report import feasibility_table, health_lines
+from grace.evaluation.results import FoldHealth, SchemeSummary
 from grace.planning.sequences import Scorer
-from grace.tasks.experiment import ExperimentSettings, _folds, _run_folds, start_fold
-from grace.tasks.progress import FoldReporter
+from grace.tasks.experiment import ExperimentSettings
 from grace.visualisation.analysis import feasibility_roc
 
 log = logging.getLogger(__name__)
@@ -124,23 +127,25 @@ def run(cfg: DictConfig) -> float:
     """Run the feasibility study; return the mean best-sequence ROC AUC over test sizes."""
     out_dir = Path(cfg.paths.output_dir)
     data = instantiate(cfg.dataset).load()
-    train_sizes, test_sizes, folds = _folds(cfg, [s.size for s in data])
-    results = _run_folds(cfg, data, folds, run_fold)
+    train_sizes, test_sizes, folds = protocol_folds(cfg, [s.size for s in data])
+    results = run_folds(cfg, data, folds, run_fold)
     report = feasibility_report([metrics for metrics, _ in results])
     report["health"] = [h for _, health in results for h in health]
     out_dir.mkdir(parents=True, exist_ok=True)
     write_json_atomic(out_dir / "feasibility.json", report)
     feasibility_roc(report, out_dir / "feasibility_roc.png")
     sizes = list(report["per_size"])
+    schemes = TypeAdapter(dict[str, dict[str, SchemeSummary]]).validate_python(report["per_size"])
+    health = TypeAdapter(list[FoldHealth]).validate_python(report["health"])
     markdown = "\n\n".join(
         [
             f"# Feasibility: protocol {cfg.protocol.name}",
             f"Train sizes {train_sizes}, test sizes {test_sizes}, {len(folds)}-fold "
             "cross-validation; ROC AUC mean ± std over folds / TPR at FPR ≤ 0.05 (fold mean). "
             "Positive = feasible; schemes in grace/evaluation/feasibility.py.",
-            feasibility_table(report["per_size"], sizes),
+            feasibility_table(schemes, sizes),
             "## Folds",
-            health_lines(report["health"]),
+            health_lines(health),
         ]
     )
     write_text_atomic(out_dir / "results.md", markdown + "\n")

@@ -15,13 +15,13 @@ from pathlib import Path
 from hydra.utils import instantiate
 from omegaconf import MISSING, DictConfig
 
+from grace.cli.runner import TaskSettings
 from grace.data.atomic import write_bytes_atomic, write_json_atomic
 from grace.data.raw_format import export_raw
 from grace.data.stats import dataset_stats
 from grace.data.store import GeneratedSource, read_chunks, seconds_per_assembly
 from grace.domain.sample import LabelledAssembly
 from grace.errors import UserError
-from grace.tasks.runner import TaskSettings
 from grace.visualisation.topview import topview_png
 
 log = logging.getLogger(__name__)

@@ -9,7 +9,7 @@ model was trained with (verdict; at the first failing step the deciding rule and
 it). Writes plan.json and plan.rrd into the run folder.
 
 The model is rebuilt from the `config.yaml` kept beside its checkpoint (<fold>/config.yaml, see
-grace/tasks/training.py), and the checkpoint's weights must fit it exactly: a checkpoint made for
+grace/model/checkpoints.py), and the checkpoint's weights must fit it exactly: a checkpoint made for
 another config stops with one line naming both files.
 """
 
@@ -22,23 +22,19 @@ from pathlib import Path
 from typing import Any
 
 from hydra.utils import instantiate
-from omegaconf import MISSING, DictConfig, OmegaConf
+from omegaconf import MISSING, DictConfig
 
+from grace.cli.runner import TaskSettings
 from grace.data.atomic import write_json_atomic
 from grace.data.raw_format import read_assembly
 from grace.errors import UserError
-from grace.model.module import GraceModule
+from grace.model.checkpoints import find_checkpoint, load_model
 from grace.model.scoring import make_scorer
-from grace.model.training import checkpoint_weights
 from grace.simulation.check import blockers, describe
-from grace.tasks.runner import TaskSettings
-from grace.tasks.training import KEPT_CONFIG
 from grace.visualisation.recording import write_recording
 from grace.visualisation.records import SequenceRecord, sequence_record
 
 log = logging.getLogger(__name__)
-
-CHECKPOINT = Path("checkpoints") / "best.ckpt"
 
 
 @dataclass
@@ -50,49 +46,6 @@ class PlanSettings(TaskSettings):
     fold: int = 0  # which fold's model of an experiment run folder
     k: int = 10  # sequences listed, best first
     threshold: float = 0.0  # λ: only sequences whose every step scores ≥ λ are listed
-
-
-def find_checkpoint(path: str | Path, fold: int = 0) -> Path:
-    """The checkpoint `path` names: a .ckpt file, a train run folder or an experiment run folder
-    (its `fold_<fold>`)."""
-    path = Path(path)
-    candidates = [path] if path.suffix == ".ckpt" else [path / CHECKPOINT]
-    candidates.append(path / f"fold_{fold}" / CHECKPOINT)
-    found = next((c for c in candidates if c.is_file()), None)
-    if found is None:
-        raise UserError(
-            f"ckpt={path}: no checkpoint there (looked for {', '.join(map(str, candidates))}); "
-            "fix: pass a .ckpt file or the folder of a train or experiment run"
-        )
-    return found
-
-
-def load_model(ckpt: Path) -> tuple[GraceModule, DictConfig]:
-    """The module rebuilt from the config kept beside `ckpt`, with the checkpoint's weights."""
-    kept = ckpt.parent.parent / KEPT_CONFIG
-    if not kept.is_file():
-        raise UserError(
-            f"ckpt={ckpt}: no {KEPT_CONFIG} beside it ({kept}); fix: use a checkpoint of a run "
-            f"that kept its config (every train and experiment run writes one)"
-        )
-    cfg = OmegaConf.load(kept)
-    try:
-        state = checkpoint_weights(ckpt)
-    except Exception as e:
-        raise UserError(
-            f"ckpt={ckpt}: not a readable Lightning checkpoint ({type(e).__name__}: {e}); "
-            "fix: pass the best.ckpt a train or experiment run wrote"
-        ) from None
-    module = instantiate(cfg.model)
-    try:
-        module.load_state_dict(state, strict=True)
-    except RuntimeError as e:
-        first = str(e).splitlines()[1].strip() if len(str(e).splitlines()) > 1 else str(e)
-        raise UserError(
-            f"ckpt={ckpt} was made for another config than {kept} ({first}); fix: keep the "
-            "checkpoint beside the config.yaml of the run that trained it"
-        ) from None
-    return module.eval(), cfg
 
 
 def plan_json(record: SequenceRecord, sources: dict[str, Any]) -> dict[str, Any]:

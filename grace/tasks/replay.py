@@ -12,8 +12,8 @@ from pathlib import Path
 
 from omegaconf import MISSING, DictConfig
 
+from grace.cli.runner import TaskSettings
 from grace.errors import UserError
-from grace.tasks.runner import TaskSettings
 from grace.visualisation.recording import open_viewer, summarise
 
 RECORDINGS = ("sequences.rrd", "plan.rrd")

@@ -17,15 +17,13 @@ import numpy as np
 from hydra.utils import instantiate
 from omegaconf import MISSING, DictConfig
 
+from grace.cli.runner import TaskSettings
 from grace.data.atomic import write_json_atomic
-from grace.domain.sample import LabelledAssembly
-from grace.errors import UserError
 from grace.evaluation.metrics import step_auc
-from grace.graphs.assembly_graph import state_flags
-from grace.graphs.datamodule import StateSet, training_states
+from grace.evaluation.protocols import split_assemblies
+from grace.evaluation.step_states import state_scores
 from grace.model.grace_pyg import count_parameters
-from grace.model.scoring import Scorer, make_scorer
-from grace.tasks.runner import TaskSettings
+from grace.model.scoring import make_scorer
 
 log = logging.getLogger(__name__)
 
@@ -37,38 +35,6 @@ class TrainSettings(TaskSettings):
     fit: Any = MISSING  # (cfg, train, val, out_dir) -> trained module, a partial
     test_fraction: float = MISSING
     val_fraction: float = MISSING
-
-
-def split_assemblies(
-    samples: list[LabelledAssembly], test_fraction: float, val_fraction: float, seed: int
-) -> tuple[list[LabelledAssembly], list[LabelledAssembly], list[LabelledAssembly]]:
-    """(train, val, test) split per size, seeded; sizes with ≥ 3 assemblies get a test share."""
-    for name, f in (("test_fraction", test_fraction), ("val_fraction", val_fraction)):
-        if not 0.0 <= f < 1.0:
-            raise UserError(f"task.{name}={f}: use a fraction in [0, 1)")
-    rng = np.random.default_rng(seed)
-    train, val, test = [], [], []
-    for size in sorted({s.size for s in samples}):
-        group = [s for s in samples if s.size == size]
-        order = rng.permutation(len(group))
-        n_test = round(test_fraction * len(group)) if len(group) >= 3 else 0
-        n_val = round(val_fraction * (len(group) - n_test)) if len(group) >= 3 else 0
-        test += [group[i] for i in order[:n_test]]
-        val += [group[i] for i in order[n_test : n_test + n_val]]
-        train += [group[i] for i in order[n_test + n_val :]]
-    return train, val, test
-
-
-def state_scores(scorer: Scorer, samples: list[LabelledAssembly]) -> tuple[np.ndarray, np.ndarray]:
-    """Flat (scores, labels) over the step-AUC test states of `samples` (docs/metrics.md)."""
-    scores, labels = [], []
-    for sample in samples:
-        s, y = training_states(sample, StateSet.orders)
-        scores.append(scorer(sample.assembly, s).ravel())
-        labels.append(state_flags(y, sample.size).numpy().ravel())
-    if not scores:
-        return np.zeros(0), np.zeros(0)
-    return np.concatenate(scores), np.concatenate(labels)
 
 
 def _finite(x: float) -> float | None:

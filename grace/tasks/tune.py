@@ -1,7 +1,7 @@
 """`python -m grace task=tune`: an Optuna search over any config keys (docs/tuning.md).
 
 The `tune` group holds the study (name, storage, sampler, pruner, metric) and its space
-(grace/tasks/tune_space.py). A trial sets the space's keys in the composed config and trains the
+(grace/cli/tune_space.py). A trial sets the space's keys in the composed config and trains the
 protocol's first `tune.folds` folds one after another; its value is the mean over those folds of
 `tune.metric` on the fold's validation assemblies at the epoch whose weights the fold keeps (the
 best checkpoint on `monitor`). Test assemblies are never scored. The first fold reports the
@@ -29,12 +29,12 @@ from lightning.pytorch import seed_everything
 from omegaconf import MISSING, DictConfig, OmegaConf
 from optuna_integration import PyTorchLightningPruningCallback
 
+from grace.cli.folds import protocol_folds
+from grace.cli.runner import TaskSettings, task_overrides
+from grace.cli.tune_report import write_report
+from grace.cli.tune_space import Param, parse_space, suggest, trial_config
 from grace.domain.sample import LabelledAssembly
 from grace.errors import UserError
-from grace.tasks.experiment import _folds
-from grace.tasks.runner import TaskSettings, task_overrides
-from grace.tasks.tune_report import write_report
-from grace.tasks.tune_space import Param, parse_space, suggest, trial_config
 
 log = logging.getLogger(__name__)
 
@@ -93,7 +93,7 @@ def _objective(cfg: DictConfig, params: list[Param], out_dir: Path, prune: bool)
         values = suggest(trial, params)
         trial_cfg = trial_config(cfg, values)
         data = data_for(trial_cfg)
-        folds = _folds(trial_cfg, [sample.size for sample in data])[2][: cfg.tune.folds]
+        folds = protocol_folds(trial_cfg, [sample.size for sample in data])[2][: cfg.tune.folds]
         scores = []
         for position, fold in enumerate(folds):
             kept = KeptMetric(metric, trial_cfg.monitor.metric, trial_cfg.monitor.mode)

@@ -12,6 +12,8 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from grace.data.atomic import write_bytes_atomic
+from grace.evaluation.results import SizeSummary
+from grace.evaluation.tables import p_at_k, value
 
 
 def save_figure(fig: Figure, path: Path) -> None:
@@ -40,7 +42,7 @@ def pr_curves(curves: dict[str, dict[str, dict]], path: Path) -> None:
     save_figure(fig, Path(path))
 
 
-def p_at_k_bars(policies: dict[str, dict[str, dict]], path: Path) -> None:
+def p_at_k_bars(policies: dict[str, dict[str, SizeSummary]], path: Path) -> None:
     """Grouped bars of P@k (mean ± std over folds) per test size and policy.
 
     The filled bar is the strict P@k (an empty retrieval counts 0); the outline above it reaches
@@ -48,27 +50,27 @@ def p_at_k_bars(policies: dict[str, dict[str, dict]], path: Path) -> None:
     with empty retrievals say how many of the counted assemblies those were.
     """
     sizes = sorted({s for per_size in policies.values() for s in per_size}, key=int)
-    ks = ("1", "2", "3")
+    ks = (1, 2, 3)
     fig = Figure(figsize=(3.6 * len(ks), 3.4), layout="constrained")
     axes = fig.subplots(1, len(ks), sharey=True)
     width = 0.8 / max(len(policies), 1)
     x = np.arange(len(sizes))
     for ax, k in zip(axes, ks, strict=True):
         for i, (policy, per_size) in enumerate(policies.items()):
-            paper = [per_size.get(s, {}).get("p_at_k", {}).get(k) for s in sizes]
-            strict = [per_size.get(s, {}).get("p_at_k_strict", {}).get(k) for s in sizes]
-            means = [st["mean"] if st else np.nan for st in strict]
-            stds = [st["std"] if st else 0.0 for st in strict]
+            paper = [value(per_size.get(s), p_at_k(k, strict=False)) for s in sizes]
+            strict = [value(per_size.get(s), p_at_k(k, strict=True)) for s in sizes]
+            means = [st.mean if st else np.nan for st in strict]
+            stds = [st.std if st else 0.0 for st in strict]
             colour = f"C{i}"
             bars = ax.bar(
                 x + i * width, means, width, yerr=stds, label=policy, capsize=2, color=colour
             )
-            outline = [st["mean"] if st else np.nan for st in paper]
+            outline = [st.mean if st else np.nan for st in paper]
             ax.bar(x + i * width, outline, width, fill=False, edgecolor=colour, linestyle="--")
             for bar, st in zip(bars, paper, strict=True):
-                if st and st.get("empty"):
+                if st and st.empty:
                     ax.annotate(
-                        f"{st['empty']}/{st['assemblies']}\nempty",
+                        f"{st.empty}/{st.assemblies}\nempty",
                         (bar.get_x() + bar.get_width() / 2, 0.02),
                         ha="center",
                         fontsize=6,

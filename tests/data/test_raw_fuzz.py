@@ -13,6 +13,7 @@ from hydra.utils import instantiate
 from raw_fuzz import fuzz_counts, outcome
 
 from grace import CONF_DIR
+from grace.cli.schemas import register_schemas
 from grace.data.raw_format import (
     ASSEMBLY_FILE,
     DISTANCES_FILE,
@@ -23,7 +24,6 @@ from grace.data.raw_format import (
     import_raw,
     read_assembly,
 )
-from grace.tasks.schemas import register_schemas
 
 
 @pytest.fixture(scope="module")

@@ -4,7 +4,13 @@ from hydra.utils import instantiate
 from omegaconf import OmegaConf
 
 from grace import CONF_DIR
-from grace.evaluation.protocols import make_folds, protocol_sizes, training_subset
+from grace.errors import UserError
+from grace.evaluation.protocols import (
+    make_folds,
+    protocol_sizes,
+    split_assemblies,
+    training_subset,
+)
 
 SIZES = [3] * 40 + [4] * 30 + [5] * 50 + [6] * 20 + [7] * 9
 
@@ -70,3 +76,22 @@ def test_feasible_only_training_subset(fake_simulator):
     assert feasible == [s for s in samples if s.truth.feasible]
     assert 0 < len(feasible) < len(samples)
     assert training_subset(samples, feasible_only=False) == samples
+
+
+@pytest.fixture
+def samples_by_size(fake_simulator):
+    simulator = instantiate(fake_simulator)
+    rng = np.random.default_rng(0)
+    return [simulator.sample(n, rng) for n in (3, 4, 5) for _ in range(10)]
+
+
+def test_split_holds_out_whole_assemblies_per_size(samples_by_size):
+    train, val, test = split_assemblies(samples_by_size, 0.15, 0.15, seed=0)
+    ids = [{id(s) for s in part} for part in (train, val, test)]
+    assert not (ids[0] & ids[1] or ids[0] & ids[2] or ids[1] & ids[2])
+    assert sum(map(len, ids)) == len(samples_by_size)
+    assert {s.size for s in test} == {s.size for s in samples_by_size}
+    again = split_assemblies(samples_by_size, 0.15, 0.15, seed=0)
+    assert [id(s) for s in again[2]] == [id(s) for s in test]
+    with pytest.raises(UserError, match=r"task\.test_fraction"):
+        split_assemblies(samples_by_size, 1.5, 0.15, seed=0)

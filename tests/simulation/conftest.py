@@ -16,6 +16,7 @@ from omegaconf import OmegaConf
 
 from grace import CONF_DIR
 from grace.domain.assembly import Assembly, Part, PartType, planar_pose
+from grace.simulation.cell_config import register
 from grace.simulation.simulator import Simulator
 
 
@@ -33,10 +34,12 @@ def build(*parts: Part) -> Assembly:
 
 
 def simulator_config(name: str = "dual_arm", *overrides: str) -> dict:
-    """The composed `simulator` group as a plain dict."""
+    """The composed `simulator` group as a plain dict (the group alone: its schemas live in
+    the simulation layer, so these tests need no task-layer registration)."""
+    register()
     GlobalHydra.instance().clear()
     with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
-        cfg = compose(config_name="config", overrides=[f"simulator={name}", *overrides])
+        cfg = compose(config_name=f"simulator/{name}", overrides=list(overrides))
     GlobalHydra.instance().clear()
     return OmegaConf.to_container(cfg.simulator, resolve=True)
 

@@ -97,7 +97,7 @@ def test_host_slides_onto_placed_connectors_and_stem_slides_into_its_host(world)
     p = world.profile
     bar, stem = p(300, 0, 0, True), p(200, 40, 120)
     asm = world.build(bar, stem)
-    motions = insertion_motions(asm, slide_length=60, slide_lead=20, approach_height=80)
+    motions = insertion_motions(asm, slide_length=60, slide_lead=20, carry_heights=[80])
     # The stem: a drop (blocked by its host) or slides; into the bar (−y) nothing is missed.
     drop, *slides = motions[1]
     assert drop.kind == "top_down" and drop.joint_blockers == 0b01
@@ -128,3 +128,31 @@ def test_bad_generator_config_names_the_field(sim_cfg, change, message):
     cfg = {k: v for k, v in cfg.items() if v is not None}
     with pytest.raises(UserError, match=r"grace/conf/simulator.*" + message):
         StructureGenerator(**cfg)
+
+
+def test_a_stem_slides_along_its_hosts_grooves_from_their_open_ends(world):
+    """Rung 3 of a rectangle, bar 0 capped at +x by part 4: from +x it takes either bar or
+    both (60 mm from the ends); taking bar 0 that way is closed by the cap; from −x rung 2's
+    connectors lie in both grooves; a connector in the rung's own groove stops every way."""
+    p = world.profile
+    frame = world.build(
+        p(300, 0, 0, True),
+        p(300, 0, 240, True),
+        p(200, -130, 120),
+        p(200, 130, 120),
+        p(200, 170, -80),
+    )
+    motions = insertion_motions(frame, slide_length=60, slide_lead=20, carry_heights=[80])
+    side = {
+        (m.direction, round(m.travel), m.joint_blockers)
+        for m in motions[3]
+        if m.kind == "side_slide"
+    }
+    from_plus_x = {(b, t) for d, t, b in side if d == (-1.0, 0.0)}
+    assert from_plus_x == {(0b10010, 60), (0b00001, 60), (0b10000, 60)}
+    from_minus_x = {(b, t) for d, t, b in side if d == (1.0, 0.0)}
+    assert from_minus_x == {(0b0110, 320), (0b0101, 320), (0b0100, 320)}
+    # A bracket in the rung's inner corner puts a connector into the rung's own groove.
+    braced = world.build(*frame.parts, world.bracket(110, 20, 1))
+    rung = [m for m in insertion_motions(braced, 60, 20, [80])[3] if m.kind == "side_slide"]
+    assert rung and all(m.joint_blockers >> 5 & 1 for m in rung)

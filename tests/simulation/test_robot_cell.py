@@ -12,10 +12,13 @@ from grace.domain.motion import Motion
 from grace.errors import UserError
 from grace.simulation.robot_cell import RobotCell, category
 
-DROP = Motion("top_down", np.array([[0.0, 0.0, 60.0], [0.0, 0.0, 0.0]]))
+DROP = Motion("top_down", np.array([[0.0, 0.0, 160.0], [0.0, 0.0, 0.0]]))
+"""Lowered from above every clamp (a part carried in lower sweeps through what stands taller)."""
+LOW = Motion("top_down", np.array([[0.0, 0.0, 75.0], [0.0, 0.0, 0.0]]))
+"""Carried in above the clamps' bases, below a closed toggle clamp's handle."""
 
 
-def slide(dx: float, dy: float, length: float = 60.0, height: float = 60.0) -> Motion:
+def slide(dx: float, dy: float, length: float = 60.0, height: float = 160.0) -> Motion:
     """Lowered `length` back from the joint, then slid along (dx, dy) into it."""
     back = [-dx * length, -dy * length]
     return Motion("slide", np.array([[*back, height], [*back, 0.0], [0, 0, 0]]), (dx, dy))
@@ -54,7 +57,7 @@ def test_a_finger_does_not_fit_a_gap_narrower_than_itself(cell, cfg):
 def test_a_finger_fits_a_wide_gap(cell, cfg):
     wide = _rails(cfg["gripper"]["finger_thickness"] + 8)
     options = cell.placement_options(wide, 0, [DROP])
-    assert any(o.reachable and o.blockers == 0 for o in options)
+    assert any(o.free(0b10) for o in options)
     assert cell.check_placement(wide, 0, 0b10, DROP)
 
 
@@ -66,7 +69,7 @@ def test_a_slide_is_blocked_by_a_part_in_its_corridor_only(cell):
     blocked = cell.placement_options(corridor, 0, [into_joint, DROP])
     held = category("held_part", "part")
     assert all(o.masks[held] == 0b10 for o in blocked if o.motion == 0)
-    assert any(o.reachable and o.blockers == 0 for o in blocked if o.motion == 1)
+    assert any(o.free(0b10) for o in blocked if o.motion == 1)
     assert not cell.check_placement(corridor, 0, 0b10, into_joint)
     assert cell.check_placement(corridor, 0, 0b10, DROP)
     assert cell.check_placement(beside, 0, 0b10, into_joint)
@@ -79,20 +82,49 @@ def test_a_part_out_of_reach_has_no_reachable_option(cell):
 
 
 def test_every_profile_gets_a_clamp_on_a_free_spot(cell, cfg):
+    """A toggle clamp where it leaves a finger's room, a swing clamp in a tight spot; every
+    base touches its profile and stands on no part, the closed bar or arm lies on its top."""
     p = PartType.PROFILE_300
+    # Rails 44 mm apart: a 40 mm clamp between them leaves no finger's room on either side.
     frame = build((p, 0.0, 0.0, 1), (PartType.PROFILE_200, -60.0, 120.0, 0))
-    scene = cell.scene(frame)
-    clamp = cfg["clamp"]
-    for boxes in scene.clamps:
-        assert boxes.shape == (2, 2, 3)
-        body = boxes[0]
-        assert body[1, 2] == clamp["height"]
-        # Touches its profile, overlaps no part.
-        for other in frame.parts:
-            for x0, y0, x1, y1 in other.footprint_boxes():
-                dx = min(body[1, 0], x1) - max(body[0, 0], x0)
-                dy = min(body[1, 1], y1) - max(body[0, 1], y0)
-                assert not (dx > 0.5 and dy > 0.5)
+    tight = build((p, 0.0, 0.0, 1), (p, 0.0, 84.0, 1), (p, 0.0, -84.0, 1))
+    finger = cfg["gripper"]["finger_thickness"]
+    types = {t["name"]: t for t in cfg["clamp"]["types"]}
+    kinds = {c.kind for c in cell.scene(frame).clamps}
+    assert kinds == {"toggle"}
+    assert cell.scene(tight).clamps[0].kind == "swing"
+    for assembly in (frame, tight):
+        for part, clamp in zip(assembly.parts, cell.scene(assembly).clamps, strict=True):
+            spec = types[clamp.kind]
+            assert len(clamp.boxes) == len(spec["boxes"])
+            base, bar = clamp.boxes[0], clamp.boxes[1]
+            assert base[0, 2] == 0 and base[1, 2] == bar[1, 2] == 55 and bar[0, 2] == 40
+            x0, y0, x1, y1 = part.footprint_boxes()[0]
+            gap = max(base[0, 0] - x1, x0 - base[1, 0], base[0, 1] - y1, y0 - base[1, 1])
+            assert abs(gap) < 0.5  # against its profile's side
+            for other in assembly.parts:
+                for ox0, oy0, ox1, oy1 in other.footprint_boxes():
+                    dx = min(base[1, 0], ox1) - max(base[0, 0], ox0)
+                    dy = min(base[1, 1], oy1) - max(base[0, 1], oy0)
+                    assert not (dx > 0.5 and dy > 0.5)
+                    if clamp.kind == "toggle" and other is not part:
+                        assert min(dx, dy) < 0.5 - finger  # a finger's room all round
+
+
+def test_a_part_is_carried_in_above_what_stands_then(cell):
+    """Rails 300 mm apart, each with a toggle clamp: carried in at 75 mm, rail 0 sweeps through
+    rail 1's handle once rail 1 is clamped; lowered from 160 mm it clears it."""
+    p = PartType.PROFILE_200
+    rails = build((p, 0.0, 0.0, 0), (p, 300.0, 0.0, 0))
+    assert [c.kind for c in cell.scene(rails).clamps] == ["toggle", "toggle"]
+    options = cell.placement_options(rails, 0, [LOW, DROP])
+    low = [o for o in options if o.motion == 0]
+    assert all(o.masks[category("held_part", "clamp")] == 0b10 for o in low)
+    assert any(o.free(0) for o in low) and not any(o.free(0b10) for o in low)
+    assert any(o.free(0b10) for o in options if o.motion == 1)
+    assert cell.check_placement(rails, 0, 0, LOW)
+    assert not cell.check_placement(rails, 0, 0b10, LOW)
+    assert cell.check_placement(rails, 0, 0b10, DROP)
 
 
 def _frame() -> tuple[Assembly, list[list[Motion]]]:
@@ -109,10 +141,18 @@ def _frame() -> tuple[Assembly, list[list[Motion]]]:
     return assembly, [[DROP], [into_bar], [into_bar, DROP], [DROP], [DROP]]
 
 
-def test_blockers_agree_with_the_uncached_mujoco_check(cell):
+@pytest.mark.parametrize("variant", ["default", "open_bar"])
+def test_blockers_agree_with_the_uncached_mujoco_check(cell, world, variant):
+    """Every option's masks against the uncached check in every state; with the toggle clamps'
+    bar standing up while open, some options wait for a clamp to close."""
+    if variant == "open_bar":
+        cell = RobotCell(**world.config("dual_arm", "simulator/cell=iiwa14_dual_open_bar")["cell"])
     assembly, motions = _frame()
     n = assembly.n_parts
     scene = cell.scene(assembly)
+    if variant == "open_bar":  # an open bar in a neighbour's way, and in its own profile's
+        needs = [(p, o.needs) for p in range(n) for o in cell.part_options(scene, p, motions[p])]
+        assert any(m & ~(1 << p) for p, m in needs) and any(m >> p & 1 for p, m in needs)
     for part in range(n):
         options = cell.part_options(scene, part, motions[part])
         others = [i for i in range(n) if i != part]
@@ -120,11 +160,7 @@ def test_blockers_agree_with_the_uncached_mujoco_check(cell):
             for k in range(len(others) + 1):
                 for subset in combinations(others, k):
                     state = sum(1 << i for i in subset)
-                    cached = any(
-                        o.reachable and o.arm_clear and not o.blockers & state
-                        for o in options
-                        if o.motion == m
-                    )
+                    cached = any(o.free(state) for o in options if o.motion == m)
                     assert cell.check_placement(assembly, part, state, motion) == cached, (
                         part,
                         m,
@@ -141,6 +177,15 @@ def test_bad_config_names_the_field(cfg):
         RobotCell(**{**cfg, "gripper": {**cfg["gripper"], "finger_size": 3}})
     with pytest.raises(UserError, match=r"palm_width"):
         RobotCell(**{**cfg, "gripper": {**cfg["gripper"], "palm_width": 50}})
+    toggle, swing = cfg["clamp"]["types"]
+    for broken_type, why in (
+        ({**toggle, "boxes": [{**toggle["boxes"][0], "when": "later"}]}, "when: always"),
+        ({**toggle, "boxes": [*toggle["boxes"], {**toggle["boxes"][1], "when": "later"}]}, "later"),
+        ({**toggle, "boxes": [{**toggle["boxes"][0], "z": [55, 0]}]}, "from < to"),
+    ):
+        clamp = {**cfg["clamp"], "types": [broken_type, swing]}
+        with pytest.raises(UserError, match=rf"clamp.types.*toggle.*{why}"):
+            RobotCell(**{**cfg, "clamp": clamp})
 
 
 def test_too_many_parts_for_the_slot_pool(cfg):

@@ -7,13 +7,16 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_the_comparison_labels_the_same_frames_with_every_simulator(tmp_path):
-    out = subprocess.run(
+    out = tmp_path / "run"
+    subprocess.run(
         [
             sys.executable,
             "-m",
-            "grace.tasks.compare_simulators",
+            "grace",
+            "task=compare_simulators",
             "dataset.sizes={4: 3}",
             f"paths.data_dir={tmp_path}",
+            f"paths.output_dir={out}",
         ],
         cwd=ROOT,
         check=True,
@@ -21,6 +24,6 @@ def test_the_comparison_labels_the_same_frames_with_every_simulator(tmp_path):
         text=True,
         timeout=300,
     )
-    report = json.loads(out.stdout)
+    report = json.loads((out / "simulators.json").read_text())
     assert set(report) == {"4"} and report["4"]["assemblies"] == 3
     assert set(report["4"]["infeasible_fraction"]) == {"dual_arm", "single_arm", "boxes"}

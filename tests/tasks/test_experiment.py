@@ -18,7 +18,7 @@ def _check_stat(stat):
 
 
 def check_schema(results: dict) -> None:
-    """The results.json schema of issue 4."""
+    """The keys and types of results.json (docs/results-schema.json)."""
     assert set(results) >= {
         "protocol",
         "train_sizes",

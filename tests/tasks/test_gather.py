@@ -4,97 +4,57 @@ import pytest
 from omegaconf import OmegaConf
 
 from grace.errors import UserError
-from grace.tasks.gather import run, variants
+from grace.tasks.gather import run
 
 
-def _write(path, protocol, train, test, seq, overrides=(), seed=0):
-    entry = {"step_auc": {"mean": 1.0, "std": 0.0}, "seq_auc": {"mean": seq, "std": 0.01}}
-    results = {
-        "protocol": protocol,
-        "train_sizes": train,
-        "test_sizes": test,
-        "folds": 4,
-        "per_size": {str(s): entry for s in test},
-        "baselines": {
-            "random": {"per_size": {str(s): {"step_auc": entry["step_auc"]} for s in test}}
-        },
-        "seconds": 1.0,
-        "run": {"seed": seed, "overrides": list(overrides)},
-    }
-    path.mkdir(parents=True)
-    (path / "results.json").write_text(json.dumps(results))
+def _gather(runs, out):
+    run(OmegaConf.create({"task": {"roots": [str(runs)]}, "paths": {"output_dir": str(out)}}))
+    return json.loads((out / "gather.json").read_text()), (out / "gather.md").read_text()
 
 
-def test_gather_builds_table2_and_table3(tmp_path):
+def test_gather_builds_table2_and_table3(tmp_path, results_run, size_entry):
     runs = tmp_path / "multirun"
-    _write(runs / "intra" / "0", "intra", [3, 4, 5], [3, 4, 5], 0.97)
+    random = {"random": size_entry(0.5)}
+    results_run(
+        runs / "intra" / "0", "intra", [3, 4, 5], [3, 4, 5], size_entry(0.97), (), 0, random
+    )
     for i, size in enumerate((3, 4)):
-        _write(
+        results_run(
             runs / "m2o" / str(i),
             "many_to_one",
             [s for s in (3, 4, 5) if s != size],
             [size],
-            0.9,
+            size_entry(0.9),
             [f"test_size={size}", "protocol=many_to_one"],
         )
-    _write(runs / "o2m" / "0", "one_to_many", [4], [3, 5], 0.5, ["train_size=4"])
-    _write(runs / "abl" / "0", "intra", [5], [5], 0.37, ["model=pe_random"])
-    out = tmp_path / "out"
-    cfg = OmegaConf.create({"task": {"roots": [str(runs)]}, "paths": {"output_dir": str(out)}})
-    run(cfg)
-    tables = json.loads((out / "gather.json").read_text())
+    results_run(runs / "o2m" / "0", "one_to_many", [4], [3, 5], size_entry(0.5), ["train_size=4"])
+    results_run(runs / "abl" / "0", "intra", [5], [5], size_entry(0.37), ["model=pe_random"])
+    tables, md = _gather(runs, tmp_path / "out")
     assert set(tables["table2"]["GRACE"]) == {"intra", "many_to_one"}
     assert set(tables["table2"]["GRACE"]["many_to_one"]) == {"3", "4"}
     assert tables["table3"]["GRACE"]["4"]["5"]["seq_auc"]["mean"] == 0.5
     assert tables["table2"]["model=pe_random"]["intra"]["5"]["seq_auc"]["mean"] == 0.37
-    md = (out / "gather.md").read_text()
+    assert len(tables["runs"]) == 5
     assert "intra A3 | intra A4 | intra A5 | many_to_one A3 | many_to_one A4 |" in md
     assert "| GRACE | A4 | 1.00 ± 0.00 | 1.00 ± 0.00 | 0.50 ± 0.01 | 0.50 ± 0.01 |" in md
     assert "| random | Complete Sequence AUC |" in md
 
 
-def test_variant_is_what_differs_between_runs():
-    runs = [
-        {"run": {"overrides": ["scale=paper", "protocol=intra", "model=grace"]}},
-        {"run": {"overrides": ["scale=paper", "test_size=5", "model=pe_none"]}},
-        {"run": {"overrides": ["scale=paper"]}},
-    ]
-    assert variants(runs) == ["model=grace", "model=pe_none", "GRACE"]
-    assert variants(runs[:1]) == ["GRACE"]
-    seeds = [{"run": {"overrides": ["seed=1", "dataset.seed=0"]}}, {"run": {"overrides": []}}]
-    assert variants(seeds) == ["GRACE", "GRACE"]  # seeds repeat a run, they are no variant
+def test_gather_puts_strict_figures_beside_the_papers(tmp_path, results_run, size_entry):
+    stat = {"mean": 0.2, "std": 0.0, "assemblies": 277, "empty": 222}
+    entry = size_entry(0.8, 0.9, p_at_k={"1": {**stat, "mean": 1.0}}, p_at_k_strict={"1": stat})
+    results_run(tmp_path / "runs" / "0", "one_to_many", [5], [3], entry)
+    results_run(tmp_path / "runs" / "1", "intra", [5], [3], entry)
+    _, md = _gather(tmp_path / "runs", tmp_path / "out")
+    assert "| Variant | Training set | step A3 | seq A3 | strict P@1 A3 |" in md
+    assert "| GRACE | A5 | 0.90 ± 0.00 | 0.80 ± 0.01 | 0.20 ± 0.00 (222/277 empty) |" in md
+    assert "| GRACE | P@1 (strict: empty = 0) | 0.20 ± 0.00 (222/277 empty) |" in md
+    assert md.index("P@1 (strict") < md.index("| GRACE | P@1 (paper")
 
 
 def test_missing_root_is_a_clear_error(tmp_path):
-    cfg = OmegaConf.create(
-        {"task": {"roots": [str(tmp_path / "nope")]}, "paths": {"output_dir": str(tmp_path)}}
-    )
     with pytest.raises(UserError, match=r"task\.roots"):
-        run(cfg)
-
-
-def test_runs_that_differ_only_in_seed_are_pooled(tmp_path):
-    """Two seeds of one variant: one block, the mean ± std over the runs' means, counts summed;
-    a variant with one seed stays as it was; the baseline, in every run, counts each seed once."""
-    runs = tmp_path / "multirun"
-    for seed, seq in ((0, 0.9), (1, 0.8)):
-        _write(runs / f"s{seed}", "intra", [5], [5], seq, [f"seed={seed}", "model=grace"], seed)
-        results = json.loads((runs / f"s{seed}" / "results.json").read_text())
-        entry = results["per_size"]["5"]
-        entry["no_sequence"] = 3
-        entry["p_at_k_strict"] = {"1": {"mean": seq, "std": 0.1, "assemblies": 20, "empty": 3}}
-        (runs / f"s{seed}" / "results.json").write_text(json.dumps(results))
-    _write(runs / "other", "intra", [5], [5], 0.5, ["seed=0", "model=pe_none"])
-    out = tmp_path / "out"
-    cfg = OmegaConf.create({"task": {"roots": [str(runs)]}, "paths": {"output_dir": str(out)}})
-    run(cfg)
-    table2 = json.loads((out / "gather.json").read_text())["table2"]
-    assert set(table2) == {"model=grace (2 seeds)", "model=pe_none", "random (2 seeds)"}
-    pooled = table2["model=grace (2 seeds)"]["intra"]["5"]
-    assert pooled["seq_auc"] == pytest.approx({"mean": 0.85, "std": 0.05, "runs": 2})
-    assert pooled["p_at_k_strict"]["1"]["empty"] == 6
-    assert pooled["p_at_k_strict"]["1"]["assemblies"] == 40
-    assert pooled["no_sequence"] == 6
-    assert table2["model=pe_none"]["intra"]["5"]["seq_auc"] == {"mean": 0.5, "std": 0.01}
-    md = (out / "gather.md").read_text()
-    assert "| model=grace (2 seeds) | Complete Sequence AUC | 0.85 ± 0.05 |" in md
+        _gather(tmp_path / "nope", tmp_path)
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(UserError, match=r"no results\.json found"):
+        _gather(tmp_path / "empty", tmp_path)

@@ -27,7 +27,7 @@ SIZE_KEYS = {
 
 
 def assert_stats_schema(stats: dict, sizes: dict[int, int]) -> None:
-    """stats.json as issue 2 specifies: keys, types, ranges; null only where nothing to average."""
+    """stats.json: its keys, types and ranges; null only where there is nothing to average."""
     assert set(stats) == {"per_size", "seconds_per_assembly", "dataset_path"}
     assert list(stats["per_size"]) == [str(n) for n in sorted(sizes)]
     assert list(stats["seconds_per_assembly"]) == list(stats["per_size"])

@@ -20,7 +20,7 @@ from hydra import compose, initialize_config_dir
 from hydra.core.global_hydra import GlobalHydra
 
 from grace import CONF_DIR
-from grace.tasks.schemas import register_schemas
+from grace.cli.schemas import register_schemas
 
 ROOT = Path(__file__).resolve().parents[2]
 SLURM_SETUP = ROOT / ".ci" / "slurm-setup.sh"

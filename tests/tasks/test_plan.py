@@ -13,10 +13,10 @@ import pytest
 import torch
 from hydra.utils import instantiate
 
+from grace.cli.fit import keep_config
 from grace.data.raw_format import read_assembly
 from grace.errors import UserError
 from grace.tasks.plan import run
-from grace.tasks.training import keep_config
 from grace.visualisation.recording import summarise, text_entries
 
 # Hand-made: a 300 mm bar, a 200 mm stem and an angle bracket joining them. Placed first, the

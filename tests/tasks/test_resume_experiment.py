@@ -1,6 +1,6 @@
 """Kill/resume of `python -m grace scale=smoke`: a run stopped by SIGTERM at random points and
 rerun each time with the same command ends with the results.json of an uninterrupted run, every
-number but the timings. The fast test of the resume logic is tests/model/test_resume.py.
+number but the timings. The fast test of the resume logic is tests/cli/test_fit_resume.py.
 
 The run is killed five times, each at a random moment after its (re)start has finished an epoch,
 so the kills land anywhere in training and evaluation: in an epoch, a validation, a checkpoint

@@ -7,22 +7,11 @@ import pytest
 from hydra.utils import instantiate
 from omegaconf import open_dict
 
-from grace.errors import UserError
+from grace.evaluation.protocols import split_assemblies
+from grace.evaluation.step_states import state_scores
 from grace.model.module import GraceModule
 from grace.model.scoring import make_scorer
-from grace.tasks.train import run, split_assemblies, state_scores
-
-
-def test_split_holds_out_whole_assemblies_per_size(samples_by_size):
-    train, val, test = split_assemblies(samples_by_size, 0.15, 0.15, seed=0)
-    ids = [{id(s) for s in part} for part in (train, val, test)]
-    assert not (ids[0] & ids[1] or ids[0] & ids[2] or ids[1] & ids[2])
-    assert sum(map(len, ids)) == len(samples_by_size)
-    assert {s.size for s in test} == {s.size for s in samples_by_size}
-    again = split_assemblies(samples_by_size, 0.15, 0.15, seed=0)
-    assert [id(s) for s in again[2]] == [id(s) for s in test]
-    with pytest.raises(UserError, match=r"task\.test_fraction"):
-        split_assemblies(samples_by_size, 1.5, 0.15, seed=0)
+from grace.tasks.train import run
 
 
 def _pr_area(scores: np.ndarray, labels: np.ndarray) -> float:

@@ -15,9 +15,9 @@ import pytest
 import tune_fakes
 from omegaconf import OmegaConf
 
+from grace.cli.tune_space import parse_space, suggest, trial_config
 from grace.errors import UserError
 from grace.tasks.tune import KeptMetric, run
-from grace.tasks.tune_space import parse_space, suggest, trial_config
 
 ROOT = Path(__file__).resolve().parents[2]
 TASKS = Path(__file__).resolve().parent

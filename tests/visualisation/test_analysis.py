@@ -1,7 +1,10 @@
+from dataclasses import replace
+
 import matplotlib.image
 
 from grace.evaluation.failures import FalseStep, failure_histogram, failures_report
 from grace.evaluation.feasibility import add_schemes, feasibility_report, scheme_summary
+from grace.evaluation.results import Confusion, CountedStat, FeasibilitySummary, SizeSummary
 from grace.visualisation.analysis import draw_analysis
 from grace.visualisation.plots import p_at_k_bars
 
@@ -35,7 +38,10 @@ def test_analysis_figures_get_a_panel_per_size(tmp_path):
 
 
 def test_p_at_k_bars_draw_strict_and_paper_values(tmp_path):
-    stat = {"mean": 0.6, "std": 0.1, "assemblies": 10, "empty": 3}
-    entry = {"p_at_k": {"1": {**stat, "mean": 0.9}}, "p_at_k_strict": {"1": stat}}
-    p_at_k_bars({"GRACE": {"5": entry}, "never": {"5": {}}}, tmp_path / "p.png")
+    stat = CountedStat(mean=0.6, std=0.1, assemblies=10, empty=3)
+    counts = {"folds": 1, "assemblies": 10, "forward_passes": 0, "offpath_states": 0}
+    feasibility = FeasibilitySummary(Confusion(tp=7, fp=0, tn=0, fn=3))
+    empty = SizeSummary(**counts, no_sequence=3, feasibility=feasibility)
+    entry = replace(empty, p_at_k={"1": replace(stat, mean=0.9)}, p_at_k_strict={"1": stat})
+    p_at_k_bars({"GRACE": {"5": entry}, "never": {"5": empty}}, tmp_path / "p.png")
     assert matplotlib.image.imread(tmp_path / "p.png").shape[0] > 100

@@ -1,0 +1,131 @@
+"""The command line checked before any work: one line per user error, nothing written.
+
+`python -m grace <overrides>` first composes the config with the light schemas (no torch, no
+Lightning: about a second) and runs grace/cli/checks.py on it, then composes it again with every
+schema once the heavy libraries are loaded. Only then does Hydra create the run folder and run
+the task, so a bad override, a missing or malformed data folder or a protocol the data set cannot
+serve stops the run before anything exists on disk. Sweeps (`-m`) are checked per job instead.
+
+A user error prints as one line on stderr, exit code 2; `HYDRA_FULL_ERROR=1` or `debug=true`
+shows the traceback instead.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+from hydra import compose, initialize_config_dir
+from hydra._internal.utils import get_args_parser
+from hydra.core.global_hydra import GlobalHydra
+from hydra.core.override_parser.overrides_parser import OverridesParser
+from hydra.errors import HydraException
+from omegaconf import DictConfig
+from omegaconf.errors import OmegaConfBaseException
+
+from grace import CONF_DIR
+from grace.cli.checks import check_config, ignored_options
+from grace.cli.schemas import light_schemas, referenced_schemas, register_schemas
+from grace.errors import UserError
+
+EXIT_USER_ERROR = 2
+CONFIG_ERRORS = (UserError, HydraException, OmegaConfBaseException)
+"""What a user's command line or data can cause; anything else is a bug and keeps its trace."""
+
+
+def one_line(error: BaseException) -> str:
+    """`error` as one line: what is wrong, where (file or config key) and the fix."""
+    if isinstance(error, UserError):
+        return " ".join(str(error).split())
+    causes = [error]
+    while causes[-1].__cause__ is not None:
+        causes.append(causes[-1].__cause__)
+    inner = next((e for e in causes if isinstance(e, OmegaConfBaseException)), causes[-1])
+    what = str(inner).strip().splitlines()[0] if str(inner).strip() else type(inner).__name__
+    key = getattr(inner, "full_key", None)
+    where = f" (config key '{key}')" if key else ""
+    context = "; ".join(line.strip() for line in str(error).splitlines() if line.strip())
+    if inner is not error and context and context not in what:
+        what = f"{context.split(';')[0]}: {what}"
+    return (
+        f"config error: {what}{where}; fix: correct the override "
+        "(`python -m grace --help` lists the groups, `--cfg job` prints the config)"
+    )
+
+
+def debugging(argv: list[str]) -> bool:
+    """Whether the user asked for tracebacks: HYDRA_FULL_ERROR=1 or a `debug=true` override."""
+    return os.environ.get("HYDRA_FULL_ERROR") == "1" or any(
+        a.lstrip("+").lower() in ("debug=true", "debug=1") for a in argv
+    )
+
+
+@contextmanager
+def user_errors(debug: bool) -> Iterator[None]:
+    """Print a user error as one line on stderr and exit 2 (re-raise it when `debug`)."""
+    try:
+        yield
+    except CONFIG_ERRORS as error:
+        if debug:
+            raise
+        print(f"grace: error: {one_line(error)}", file=sys.stderr)
+        sys.exit(EXIT_USER_ERROR)
+
+
+def run_overrides(argv: list[str]) -> list[str] | None:
+    """The overrides of a single run, or None for what preflight leaves to Hydra (a sweep, another
+    config tree, or --help, --cfg, --info and the like)."""
+    args = get_args_parser().parse_args(argv)
+    informative = (args.help, args.hydra_help, args.cfg, args.info, args.shell_completion)
+    custom = (args.config_path, args.config_name, args.config_dir, args.experimental_rerun)
+    if args.multirun or any(informative) or any(custom):
+        return None
+    return list(args.overrides)
+
+
+def _compose(overrides: list[str], open_groups: set[str]) -> DictConfig:
+    """The config of `overrides`, without Hydra's own keys and without key overrides inside
+    `open_groups` (their placeholders have no keys to override)."""
+    parsed = OverridesParser.create().parse_overrides(overrides)
+    kept = []
+    for text, override in zip(overrides, parsed, strict=True):
+        key = override.key_or_group
+        top = key.split(".")[0].split("/")[0]
+        if top == "hydra" or (top in open_groups and "." in key):
+            continue
+        kept.append(text)
+    GlobalHydra.instance().clear()
+    try:
+        with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
+            return compose(config_name="config", overrides=kept)
+    finally:
+        GlobalHydra.instance().clear()
+
+
+def preflight(argv: list[str]) -> None:
+    """Check the command line `argv` in full before Hydra runs it (see the module docstring)."""
+    overrides = run_overrides(argv)
+    if overrides is None:
+        register_schemas()
+        return
+    register_schemas(light=True)
+    light = {path.split("/")[0] for path in light_schemas()}
+    placeholders = {path.split("/")[1] for path in referenced_schemas()}
+    cfg = _compose(overrides, placeholders - light - {"simulator"})
+    for warning in ignored_options(cfg, overrides):
+        print(f"grace: warning: {warning}", file=sys.stderr)
+    check_config(cfg)
+    register_schemas()
+    _compose(overrides, set())
+
+
+def run_dir_overrides(argv: list[str]) -> list[str]:
+    """`hydra.run.dir=<dir>` when the user set `paths.output_dir=<dir>` alone, so Hydra's own
+    records (.hydra/) land in the run folder rather than in a second, dated one."""
+    overrides = run_overrides(argv) or []
+    keys = {o.split("=", 1)[0].lstrip("+"): o.split("=", 1)[1] for o in overrides if "=" in o}
+    if "paths.output_dir" in keys and "hydra.run.dir" not in keys:
+        return [f"hydra.run.dir={keys['paths.output_dir']}"]
+    return []

@@ -1,0 +1,286 @@
+"""Typed schemas of the config groups, registered with Hydra's ConfigStore.
+
+A schema is built from what its config instantiates: the fields of a dataclass, or the keyword
+parameters of a class, with their type hints and defaults, plus `_target_` (and `_partial_`,
+`_recursive_`, `_convert_` where the config uses them). Each YAML file of a group lists its
+schema first in its defaults (`- /schema/<group>@_here_`), so OmegaConf checks every value's
+type when the config is composed and an error names the key: `seed=abc` fails with
+"Value 'abc' ... could not be converted to Integer, full_key: seed", `model.graph.pe=learned`
+with "Invalid value 'learned', expected one of [sinusoidal, random, none]". A key that the
+target does not take is an error too, so a typo never passes silently.
+
+Hand-written on purpose: hydra-zen's `builds()` makes such schemas from signatures, but (0.17)
+types every `X | None` as Any, and this code base writes optional values that way everywhere;
+OmegaConf itself types them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import importlib
+import inspect
+import types
+import typing
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from hydra.core.config_store import ConfigStore
+from omegaconf import MISSING, OmegaConf
+
+from grace import CONF_DIR
+from grace.data.loading import RawSource
+from grace.data.store import GeneratedSource
+from grace.evaluation.protocols import ProtocolSettings
+from grace.simulation.cell_config import register as register_simulator_schemas
+
+_SCALARS = (int, float, bool, str, bytes, Path)
+
+
+def config_type(hint: Any) -> Any:
+    """`hint` where OmegaConf can check it (scalars, enums, dataclasses, lists of those,
+    optionals); Any where it cannot (callables, objects given at run time, dicts)."""
+    if hint is Any or hint in _SCALARS:
+        return hint
+    if isinstance(hint, type) and (issubclass(hint, enum.Enum) or dataclasses.is_dataclass(hint)):
+        return hint
+    origin, args = typing.get_origin(hint), typing.get_args(hint)
+    if origin in (types.UnionType, typing.Union):
+        inner = [a for a in args if a is not type(None)]
+        kind = config_type(inner[0]) if len(inner) == 1 and len(args) == 2 else Any
+        # OmegaConf 2.3 resolves an interpolation merged into an optional list or dict (which
+        # fails while the config is still being composed), so those stay untyped.
+        if kind is Any or typing.get_origin(kind) in (list, dict):
+            return Any
+        return kind | None
+    if origin is list and len(args) == 1 and config_type(args[0]) is not Any:
+        return list[config_type(args[0])]
+    # Dicts stay untyped: Hydra's command-line override `key={3: 8}` cannot replace a typed
+    # dict whose keys differ (it merges, and the struct flag refuses new keys).
+    return Any
+
+
+def _config_value(value: Any) -> bool:
+    """Whether a Python default can stand in a config as it is."""
+    if value is None or isinstance(value, (*_SCALARS, enum.Enum)):
+        return True
+    if isinstance(value, (list, tuple)):
+        return all(_config_value(v) for v in value)
+    if isinstance(value, dict):
+        return all(isinstance(k, (int, str)) and _config_value(v) for k, v in value.items())
+    return False
+
+
+def _default(spec: dataclasses.Field) -> Any:
+    if spec.default_factory is not dataclasses.MISSING:
+        return spec.default_factory()
+    return MISSING if spec.default is dataclasses.MISSING else spec.default
+
+
+def _field(value: Any) -> Any:
+    if isinstance(value, (list, tuple, dict)):
+        copy = list(value) if isinstance(value, (list, tuple)) else dict(value)
+        return field(default_factory=lambda: copy)
+    return field(default=value)
+
+
+def schema(
+    target: Callable[..., Any],
+    *,
+    exclude: tuple[str, ...] = (),
+    nested: Mapping[str, type] | None = None,
+    meta: Mapping[str, Any] | None = None,
+) -> type:
+    """A dataclass schema of the config that instantiates `target`.
+
+    `exclude` names parameters given at run time rather than by the config, `nested` the schemas
+    of parameters that are configs with their own `_target_`, `meta` Hydra's special keys and
+    their values. A parameter whose default cannot stand in a config (a function, an object) is
+    left out: it cannot be configured.
+    """
+    nested = dict(nested or {})
+    if dataclasses.is_dataclass(target):
+        hints = typing.get_type_hints(target)
+        params = {f.name: _default(f) for f in dataclasses.fields(target) if f.init}
+    else:
+        init = target.__init__ if isinstance(target, type) else target
+        hints = typing.get_type_hints(init)
+        params = {
+            p.name: MISSING if p.default is p.empty else p.default
+            for p in inspect.signature(target).parameters.values()
+            if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)
+        }
+    spec: list[tuple[str, Any, Any]] = [
+        ("_target_", str, field(default=f"{target.__module__}.{target.__qualname__}"))
+    ]
+    spec += [(key, type(value), field(default=value)) for key, value in (meta or {}).items()]
+    for name, default in params.items():
+        if name in exclude:
+            continue
+        if name in nested:
+            spec.append((name, nested[name], field(default_factory=nested[name])))
+        elif default is MISSING or _config_value(default):
+            spec.append((name, config_type(hints.get(name, Any)), _field(default)))
+    return dataclasses.make_dataclass(f"{target.__qualname__}Schema", spec)
+
+
+class MonitorMode(enum.StrEnum):
+    """Whether the monitored metric improves downwards or upwards."""
+
+    min = "min"
+    max = "max"
+
+
+@dataclass
+class Monitor:
+    """What early stopping, the best checkpoint and the lr scheduler watch."""
+
+    metric: str = "val_loss"
+    mode: MonitorMode = MonitorMode.min
+
+
+@dataclass
+class Paths:
+    """Where data, run outputs and logs go."""
+
+    data_dir: str = "data_cache"
+    output_dir: str = MISSING
+    fit_dir: str = MISSING
+    log_file: str = MISSING
+
+
+@dataclass
+class RootConfig:
+    """The keys of `config.yaml` and one untyped slot per config group (each has a schema)."""
+
+    seed: int = 0
+    threads: int = 2
+    debug: bool = False
+    train_size: int = 5
+    test_size: int = 5
+    ckpt: str | None = None
+    assembly: str | None = None
+    path: str | None = None
+    monitor: Monitor = field(default_factory=Monitor)
+    paths: Paths = field(default_factory=Paths)
+    task: Any = MISSING
+    simulator: Any = None
+    dataset: Any = None
+    model: Any = None
+    datamodule: Any = None
+    trainer: Any = None
+    callbacks: Any = None
+    logger: Any = None
+    protocol: Any = None
+    classifier: Any = None
+    scale: Any = None
+    tune: Any = None
+
+
+def light_schemas() -> dict[str, type]:
+    """The schemas whose modules import neither torch nor Lightning: enough to check a command
+    line in a second, before the heavy libraries load (grace/cli/preflight.py)."""
+    return {
+        "dataset/generated": schema(
+            GeneratedSource, meta={"_recursive_": False, "_convert_": "all"}
+        ),
+        "dataset/raw": schema(RawSource),
+        "protocol": ProtocolSettings,
+    }
+
+
+def heavy_schemas() -> dict[str, type]:
+    """The schemas of components built on torch and Lightning (their modules take seconds to
+    import, hence imported here, on demand)."""
+    from lightning.pytorch import Trainer
+    from lightning.pytorch.callbacks import EarlyStopping, ModelCheckpoint
+    from lightning.pytorch.loggers import CSVLogger, TensorBoardLogger
+
+    from grace.cli.tune_space import TuneConfig
+    from grace.graphs.datamodule import StateDataModule
+    from grace.graphs.encoding import GraphEncoding
+    from grace.model.grace_pyg import NetConfig
+    from grace.model.module import GraceModule
+
+    return {
+        "model": schema(
+            GraceModule,
+            nested={"net": schema(NetConfig), "graph": schema(GraphEncoding)},
+        ),
+        "datamodule": schema(
+            StateDataModule, exclude=("train", "val", "enc", "collate"), meta={"_partial_": True}
+        ),
+        "trainer": schema(Trainer, exclude=("callbacks", "logger", "plugins")),
+        "callbacks/early_stopping": schema(EarlyStopping),
+        "callbacks/model_checkpoint": schema(ModelCheckpoint),
+        "logger/csv": schema(CSVLogger),
+        "logger/tensorboard": schema(TensorBoardLogger),
+        "tune": TuneConfig,
+    } | task_schemas()
+
+
+def task_schemas(conf_dir: Path = CONF_DIR) -> dict[str, type]:
+    """`task/<name>` → the schema of each task config: the TaskSettings subclass defined in the
+    module of its `run` target. The task layer sits above this one, so its modules are found the
+    way Hydra finds every target: by the name the config gives."""
+    from grace.cli.runner import TaskSettings
+
+    out = {}
+    for path in sorted((conf_dir / "task").glob("*.yaml")):
+        module = importlib.import_module(OmegaConf.load(path).run._target_.rpartition(".")[0])
+        found = [
+            kind
+            for kind in vars(module).values()
+            if isinstance(kind, type)
+            and issubclass(kind, TaskSettings)
+            and kind.__module__ == module.__name__
+        ]
+        if len(found) != 1:
+            raise TypeError(
+                f"{module.__name__} (run target of {path}) defines {len(found)} TaskSettings "
+                "subclasses; a task module defines exactly one, its schema"
+            )
+        (settings,) = found
+        out[f"task/{path.stem}"] = settings
+    return out
+
+
+def referenced_schemas(conf_dir: Path = CONF_DIR) -> set[str]:
+    """Every `schema/<group>` path that a YAML file of the config tree lists in its defaults."""
+    found = set()
+    for path in conf_dir.rglob("*.yaml"):
+        for entry in OmegaConf.load(path).get("defaults", None) or []:
+            text = entry if isinstance(entry, str) else next(iter(entry), "")
+            if isinstance(text, str) and text.startswith("/schema/"):
+                found.add(text.removeprefix("/").split("@")[0])
+    return found
+
+
+def _stored(store: ConfigStore, path: str) -> bool:
+    *groups, name = path.split("/")
+    node = store.repo
+    for group in groups:
+        node = node.get(group, {})
+    return f"{name}.yaml" in node
+
+
+def register_schemas(light: bool = False) -> None:
+    """Store the root schema as `grace_schema` and each group's as `schema/<group>`.
+
+    `light=True` stores the light schemas only, and an open placeholder (any keys, no types) for
+    every other schema the configs refer to, so the config composes without torch or Lightning.
+    """
+    register_simulator_schemas()
+    store = ConfigStore.instance()
+    store.store(name="grace_schema", node=RootConfig)
+    groups: dict[str, Any] = light_schemas()
+    if light:
+        open_paths = {p for p in referenced_schemas() if not _stored(store, p)}
+        groups = {path.removeprefix("schema/"): {} for path in open_paths} | groups
+    else:
+        groups |= heavy_schemas()
+    for path, node in groups.items():
+        group, _, name = f"schema/{path}".rpartition("/")
+        store.store(group=group, name=name, node=node)

@@ -1,0 +1,224 @@
+"""Runs combined into the paper's tables: what task=gather and task=report read and pool.
+
+Every results.json under the given folders is read (grace/evaluation/results.py): Table 2
+(intra-sized beside many-to-one, one column per test size; strict figures first, as in
+results.md), Table 3 (one-to-many: a row per training size, with the strict P@1 beside the
+paper's two AUCs). Runs that differ in anything but the protocol and its sizes (a model variant,
+as in the ablation sweep) get their own block of rows, labelled by those overrides; baselines
+appear as variants of their own. Runs that differ only in `seed` (or `dataset.seed`) are
+replicates, not variants: their cells pool them (mean ± std over the runs' fold means, counts
+summed) and the block's label says how many seeds, e.g. the `seeds` sweep
+(`python -m grace -m seed=0,1,2 dataset.seed=0`: training seeds on one data set) gathers into
+one block.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from grace.errors import UserError
+from grace.evaluation.report import mean_std
+from grace.evaluation.results import (
+    RESULTS_FILE,
+    CountedStat,
+    ExperimentResults,
+    SizeSummary,
+    Stat,
+    read_results,
+)
+from grace.evaluation.tables import cell, markdown_table, metrics_table, p_at_k, value
+
+SIZE_KEYS = ("protocol", "test_size", "train_size")
+"""Overrides that choose the protocol and its sizes, not a variant."""
+
+REPLICATE_KEYS = ("seed", "dataset.seed")
+"""Overrides that repeat a run rather than vary it: such runs are pooled."""
+
+ONE_TO_MANY = "one_to_many"
+"""The protocol of Table 3; the others fill Table 2."""
+
+
+def find_results(roots: Iterable[str | Path]) -> list[Path]:
+    """Every results.json under the roots, sorted (a UserError if there is none)."""
+    roots = [Path(root) for root in roots]
+    found = []
+    for root in roots:
+        if not root.exists():
+            raise UserError(
+                f"task.roots: {root} does not exist; pass the sweep folder(s) holding the runs"
+            )
+        found += sorted(root.rglob(RESULTS_FILE))
+    if not found:
+        shown = [str(root) for root in roots]
+        raise UserError(f"task.roots {shown}: no {RESULTS_FILE} found; run a sweep first")
+    return found
+
+
+def _replicate(results: ExperimentResults) -> tuple:
+    """Which repeat a run is: its training seed and its data set's (absent in older runs)."""
+    return (None, None) if results.run is None else (results.run.seed, results.run.data_seed)
+
+
+def _variant_overrides(results: ExperimentResults) -> dict[str, str]:
+    out = {}
+    for override in [] if results.run is None else results.run.overrides:
+        key, _, value_ = override.partition("=")
+        key = key.lstrip("+~")
+        if key.split(".")[0] not in SIZE_KEYS and key not in REPLICATE_KEYS:
+            out[key] = value_
+    return out
+
+
+def variants(runs: list[ExperimentResults]) -> list[str]:
+    """Label of each run: the overrides whose values differ between the gathered runs.
+
+    Settings shared by every run (e.g. scale=paper) and the protocol/size overrides say nothing
+    about which variant a row is; "GRACE" when nothing differs.
+    """
+    overrides = [_variant_overrides(r) for r in runs]
+    keys = sorted({k for o in overrides for k in o})
+    varying = [k for k in keys if len({o.get(k) for o in overrides}) > 1]
+    return [" ".join(f"{k}={o[k]}" for k in varying if k in o) or "GRACE" for o in overrides]
+
+
+def pool(entries: list[Any]) -> Any:
+    """Entries of runs that differ only in their seed, as one: a metric becomes the mean ± std
+    over the runs' means with the number of `runs`; counts are summed; a metric that one run
+    lacks is left out."""
+    first = entries[0]
+    if len(entries) == 1:
+        return first
+    if any(e is None for e in entries):
+        return None
+    if isinstance(first, Stat):
+        stat = mean_std([e.mean for e in entries])
+        pooled = Stat(mean=stat.mean, std=stat.std, runs=len(entries))
+        if not isinstance(first, CountedStat):
+            return pooled
+        counts = {k: sum(getattr(e, k) for e in entries) for k in ("assemblies", "empty")}
+        return CountedStat(**vars(pooled), **counts)
+    if dataclasses.is_dataclass(first):
+        return type(first)(
+            **{
+                f.name: pool([getattr(e, f.name) for e in entries])
+                for f in dataclasses.fields(first)
+            }
+        )
+    if isinstance(first, dict):
+        keys = [k for k in first if all(k in e for e in entries)]
+        pooled = {k: pool([e[k] for e in entries]) for k in keys}
+        return {k: v for k, v in pooled.items() if v is not None} or None
+    if all(isinstance(e, int) for e in entries):
+        return sum(entries)
+    return first
+
+
+@dataclass
+class Gathered:
+    """The gathered runs: per variant (and baseline) label, Table 2's entries by protocol and
+    test size, Table 3's by training sizes ("4" or "4+5") and test size; pooled over seeds."""
+
+    table2: dict[str, dict[str, dict[str, SizeSummary]]] = field(default_factory=dict)
+    table3: dict[str, dict[str, dict[str, SizeSummary]]] = field(default_factory=dict)
+    runs: list[str] = field(default_factory=list)
+
+
+def collect(paths: Iterable[Path]) -> Gathered:
+    """The runs of `paths` (results.json files) pooled into Table 2 and Table 3 entries."""
+    paths = list(paths)
+    return gather_runs([read_results(path) for path in paths], paths)
+
+
+def gather_runs(runs: list[ExperimentResults], paths: list[Path]) -> Gathered:
+    """`runs` (read from `paths`) pooled into Table 2 and Table 3 entries.
+
+    A variant run with several seeds is labelled "<variant> (<n> seeds)", its entries pooled.
+    """
+    tables: dict[str, dict] = {"table2": {}, "table3": {}}
+    seeds: dict[str, set] = {}
+    for results, label in zip(runs, variants(runs), strict=True):
+        policies = {label: results.per_size} | {n: b.per_size for n, b in results.baselines.items()}
+        if results.protocol == ONE_TO_MANY:
+            table, key = "table3", "+".join(str(s) for s in results.train_sizes)
+        else:
+            table, key = "table2", results.protocol
+        seed = _replicate(results)
+        for name, per_size in policies.items():
+            seeds.setdefault(name, set()).add(seed)
+            block = tables[table].setdefault(name, {}).setdefault(key, {})
+            for size, entry in per_size.items():
+                # One entry per seed: a baseline recurs unchanged in every variant's run.
+                block.setdefault(size, {})[seed] = entry
+
+    def label(name: str) -> str:
+        n = len(seeds[name])
+        return f"{name} ({n} seeds)" if n > 1 else name
+
+    pooled = {
+        table: {
+            label(name): {
+                key: {size: pool(list(by_seed.values())) for size, by_seed in block.items()}
+                for key, block in by_key.items()
+            }
+            for name, by_key in by_name.items()
+        }
+        for table, by_name in tables.items()
+    }
+    return Gathered(pooled["table2"], pooled["table3"], [str(p.parent) for p in paths])
+
+
+def sizes_of(blocks: Iterable[dict]) -> list[str]:
+    """The test sizes of `blocks` ({size: entry}), ascending."""
+    return sorted({s for block in blocks for s in block}, key=int)
+
+
+def table2_markdown(table2: dict[str, dict[str, dict[str, SizeSummary]]]) -> str:
+    """Paper Table 2: metrics × (protocol, size), a block of rows per variant."""
+    protocols = sorted({p for v in table2.values() for p in v}, key=lambda p: p != "intra")
+    columns = [(p, s) for p in protocols for s in sizes_of(v.get(p, {}) for v in table2.values())]
+    blocks = {
+        name: {
+            (p, s): entry for p, per_size in by_protocol.items() for s, entry in per_size.items()
+        }
+        for name, by_protocol in table2.items()
+    }
+    return metrics_table(blocks, [(f"{p} A{s}", (p, s)) for p, s in columns], first="Variant")
+
+
+TABLE3_COLUMNS = (
+    ("step", lambda e: e.step_auc),
+    ("seq", lambda e: e.seq_auc),
+    ("strict P@1", p_at_k(1, strict=True)),
+)
+"""Paper Table 3's step and sequence AUC, then the strict P@1 (an empty retrieval counts 0)."""
+
+
+def table3_markdown(table3: dict[str, dict[str, dict[str, SizeSummary]]]) -> str:
+    """Paper Table 3: a row per training size; per test size step AUC, sequence AUC, strict P@1."""
+    sizes = sizes_of(block for v in table3.values() for block in v.values())
+    columns = [(label, metric, s) for label, metric in TABLE3_COLUMNS for s in sizes]
+    rows = []
+    for name, by_train in table3.items():
+        for train in sorted(by_train, key=lambda t: [int(x) for x in t.split("+")]):
+            per_size = by_train[train]
+            cells = [cell(value(per_size.get(s), metric)) for _, metric, s in columns]
+            rows.append([name, f"A{train}", *cells])
+    head = ["Variant", "Training set", *(f"{c[0]} A{c[2]}" for c in columns)]
+    return markdown_table(head, rows)
+
+
+def gather_markdown(tables: Gathered) -> str:
+    """gather.md: Table 2 and Table 3 of the gathered runs."""
+    parts = [
+        f"# Gathered results ({len(tables.runs)} runs; mean ± std over folds, or over the seeds' "
+        "fold means in a block of several seeds)"
+    ]
+    if tables.table2:
+        parts += ["## Table 2: intra-sized and many-to-one", table2_markdown(tables.table2)]
+    if tables.table3:
+        parts += ["## Table 3: one-to-many", table3_markdown(tables.table3)]
+    return "\n\n".join(parts) + "\n"

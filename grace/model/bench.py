@@ -1,0 +1,84 @@
+"""Timing of the network's two implementations (task=bench): training steps and single-state
+inference, on the same weights; figures, not tests."""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+import torch
+
+from grace.domain.sample import LabelledAssembly
+from grace.graphs.datamodule import AssemblyBatchSampler, StateDataset, merge_chunks
+from grace.model.impls import NetImpl
+from grace.model.module import GraceModule
+from grace.model.scoring import make_scorer
+
+
+def feasible_assemblies(
+    simulator: Any, size: int, count: int, rng: np.random.Generator
+) -> list[LabelledAssembly]:
+    """`count` feasible assemblies of `size` from `simulator` (its `sample(size, rng)`)."""
+    out: list[LabelledAssembly] = []
+    for _ in range(50 * count):
+        sample = simulator.sample(size, rng)
+        if sample.truth.feasible:
+            out.append(sample)
+        if len(out) == count:
+            return out
+    raise RuntimeError(f"bench: the simulator gave too few feasible A{size} assemblies")
+
+
+def _batches(dataset: StateDataset, batch_size: int) -> list[list[int]]:
+    """The training sampler's batches in chunk order, without a short last one (timed steps
+    should all hold ≈`batch_size` states)."""
+    sizes = dataset.chunk_sizes()
+    packed = AssemblyBatchSampler(sizes, batch_size, shuffle=False, seed=0)
+    batches = [b for b in packed if sum(sizes[k] for k in b) >= batch_size]
+    if not batches:
+        raise RuntimeError("bench: too few states for one training batch; raise task.assemblies")
+    return batches
+
+
+def train_graphs_per_s(
+    module: GraceModule, dataset: StateDataset, batch_size: int, steps: int
+) -> float:
+    """State graphs per second of full training steps (collate, forward, backward, Adam).
+
+    The median over steps: the machine is shared, and one preempted step should not decide.
+    """
+    optimiser = torch.optim.Adam(module.parameters(), lr=1e-4)
+    module.train()
+    batches = _batches(dataset, batch_size)
+    rates = []
+    for step in range(steps + 1):
+        items = [dataset[k] for k in batches[step % len(batches)]]
+        start = time.perf_counter()
+        batch = merge_chunks(dataset, module.impl.collate, items)
+        loss = module.loss(batch, module(batch))
+        optimiser.zero_grad()
+        loss.backward()
+        optimiser.step()
+        if step:  # the first step warms up allocators and lazy initialisation
+            rates.append(batch.n_states / (time.perf_counter() - start))
+    return float(np.median(rates))
+
+
+def infer_ms_per_state(
+    module: GraceModule, samples: list[LabelledAssembly], impl: NetImpl, calls: int, warm: bool
+) -> float:
+    """Median milliseconds per single-state scorer call on the non-final states of `samples`."""
+    pairs = [(s.assembly, int(st)) for s in samples for st in s.truth.states[:-1]]
+    scorer = make_scorer(module, impl)
+    for assembly, state in pairs[:3]:
+        scorer(assembly, np.array([state]))
+    times = []
+    for k in range(calls):
+        assembly, state = pairs[k % len(pairs)]
+        if not warm:
+            scorer.clear()
+        start = time.perf_counter()
+        scorer(assembly, np.array([state]))
+        times.append(time.perf_counter() - start)
+    return 1000.0 * float(np.median(times))

@@ -1,0 +1,123 @@
+import csv
+
+import numpy as np
+import torch
+from hydra.utils import instantiate
+
+from grace.cli.fit import train_module
+from grace.evaluation.metrics import step_auc
+from grace.evaluation.step_states import state_scores
+from grace.model.loss import grace_loss
+from grace.model.module import GraceModule
+from grace.model.module import step_auc as logged_step_auc
+from grace.model.scoring import make_scorer
+
+
+def _epochs(path):
+    rows = list(csv.DictReader(path.open()))
+    return [r for r in rows if r["train_loss"]]
+
+
+def test_short_training_overfits_a_tiny_set(cfg_factory, samples, tmp_path):
+    cfg = cfg_factory(
+        "trainer.max_epochs=40",
+        "datamodule.batch_size=8",
+        "trainer.enable_progress_bar=false",
+        "model.scheduler=null",
+        "seed=0",
+    )
+    before = step_auc(*state_scores(make_scorer(instantiate(cfg.model)), samples))
+    module = train_module(cfg, samples, samples, tmp_path / "run")
+    assert isinstance(module, GraceModule)
+    assert (tmp_path / "run" / "checkpoints" / "best.ckpt").exists()
+    rows = _epochs(next((tmp_path / "run" / "logs").glob("version_*/metrics.csv")))
+    losses = [float(r["train_loss"]) for r in rows]
+    aucs = [float(r["train_step_auc"]) for r in rows]
+    assert losses[-1] < 0.7 * losses[0]
+    assert np.mean(aucs[-3:]) > aucs[0] + 0.2
+    after = step_auc(*state_scores(make_scorer(module), samples))
+    assert after > before + 0.2
+
+
+def test_the_logged_step_auc_is_the_evaluation_metric():
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        scores, labels = rng.random(400).round(2), rng.random(400) < 0.3
+        logged = logged_step_auc(torch.tensor(scores), torch.tensor(labels))
+        assert abs(float(logged) - step_auc(scores, labels)) < 1e-6  # float32 in torchmetrics
+    assert logged_step_auc(torch.rand(5), torch.zeros(5)) is None
+
+
+def test_the_checkpoint_rebuilds_the_module_without_the_config(cfg_factory, samples, tmp_path):
+    cfg = cfg_factory("trainer.max_epochs=2", "trainer.enable_progress_bar=false")
+    module = train_module(cfg, samples, samples, tmp_path / "run")
+    best = tmp_path / "run" / "checkpoints" / "best.ckpt"
+    loaded = GraceModule.load_from_checkpoint(best, weights_only=False)
+    states = samples[1].truth.states
+    np.testing.assert_array_equal(
+        make_scorer(loaded)(samples[1].assembly, states),
+        make_scorer(module)(samples[1].assembly, states),
+    )
+
+
+def test_without_validation_the_training_loss_is_monitored(cfg_factory, samples, tmp_path):
+    cfg = cfg_factory("trainer.max_epochs=3", "trainer.enable_progress_bar=false")
+    train_module(cfg, samples, [], tmp_path / "run")
+    rows = list(csv.DictReader(next((tmp_path / "run").glob("logs/version_*/metrics.csv")).open()))
+    assert rows and not any(r.get("val_loss") for r in rows)
+    assert (tmp_path / "run" / "checkpoints" / "best.ckpt").exists()
+
+
+def test_lr_decay_watches_the_early_stopping_monitor(cfg_factory):
+    constant = instantiate(cfg_factory("model.scheduler=null").model).configure_optimizers()
+    assert isinstance(constant, torch.optim.Adam)
+    cfg = cfg_factory(
+        "model.scheduler.factor=0.25", "monitor.metric=val_step_auc", "monitor.mode=max"
+    )
+    config = instantiate(cfg.model).configure_optimizers()
+    decay = config["lr_scheduler"]["scheduler"]
+    assert isinstance(decay, torch.optim.lr_scheduler.ReduceLROnPlateau)
+    assert config["lr_scheduler"]["monitor"] == "val_step_auc"
+    assert decay.mode == "max" and decay.factor == 0.25
+    assert instantiate(cfg.callbacks.early_stopping).monitor == "val_step_auc"
+
+
+def test_a_fit_without_validation_watches_the_training_loss(cfg_factory, samples, tmp_path):
+    """No validation assemblies: early stopping and the best checkpoint watch train_loss (the
+    monitor wiring of grace/cli/fit.py); the best checkpoint is the lowest train_loss."""
+    cfg = cfg_factory(
+        "trainer.max_epochs=3",
+        "trainer.enable_progress_bar=false",
+        "model.net.hidden=8",
+        "model.net.surface_blocks=1",
+    )
+    module = train_module(cfg, samples, [], tmp_path / "run")
+    assert isinstance(module, GraceModule)
+    best = torch.load(tmp_path / "run" / "checkpoints" / "best.ckpt", weights_only=False)
+    rows = _epochs(next((tmp_path / "run" / "logs").glob("version_*/metrics.csv")))
+    losses = [float(r["train_loss"]) for r in rows]
+    assert len(losses) == 3 and "val_loss" not in {k for r in rows for k, v in r.items() if v}
+    assert best["epoch"] == int(np.argmin(losses))
+
+
+def test_two_heads_train_next_step_and_placeable_outputs_on_their_own_targets(cfg_factory, samples):
+    """With the placeable head the loss is the next-step loss on the graded labels (with the
+    state weights) plus the placeable output's loss on the placeable mask (unweighted)."""
+    cfg = cfg_factory(
+        "model.net.pair_readout=8", "model.net.pair_geometry=6", "model.net.placeable_head=true"
+    )
+    module = instantiate(cfg.model)
+    dm = instantiate(cfg.datamodule)(samples, samples, enc=module.enc, collate=module.impl.collate)
+    batch = next(iter(dm.train_dataloader()))
+    assert batch.weights is not None and batch.placeable is not None
+    logged = {}
+    module.log = lambda name, value, **kw: logged.setdefault(name, value)
+    loss = module.training_step(batch, 0)
+    logits = module(batch)
+    assert logits.shape == (*batch.mask.shape, 2)
+    step = grace_loss(
+        logits[..., 0], batch.labels, batch.flags, batch.mask, module.delta, batch.weights
+    )
+    place = grace_loss(logits[..., 1], batch.placeable, batch.flags, batch.mask, module.delta)
+    torch.testing.assert_close(loss, step + place)
+    assert not torch.equal(batch.placeable, batch.labels)

@@ -1,0 +1,158 @@
+"""Bad input through the real entry point: one line naming what, where and the fix, exit code 2,
+nothing written, and no torch or Lightning loaded first (the checks run in about a second;
+grace/cli/preflight.py). One row per kind of bad input."""
+
+import re
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hydra.utils import instantiate
+
+from grace.data.raw_format import export_raw
+
+ROOT = Path(__file__).resolve().parents[2]
+TINY = "dataset.sizes={3: 4, 4: 4}"  # no shell: no quotes
+HEAVY = ("torch", "lightning", "torch_geometric")
+
+
+def grace(cwd: Path, *overrides: str) -> tuple[int, list[str], set[str], float]:
+    """Exit code, our stderr lines, the top-level modules imported, and seconds."""
+    start = time.perf_counter()
+    done = subprocess.run(
+        [sys.executable, "-X", "importtime", "-m", "grace", *overrides],
+        cwd=cwd,
+        env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"},
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    seconds = time.perf_counter() - start
+    lines = done.stderr.splitlines()
+    ours = [line for line in lines if not line.startswith("import time:")]
+    modules = {
+        line.split("|")[-1].strip().split(".")[0] for line in lines if line.startswith("import")
+    }
+    return done.returncode, ours + done.stdout.splitlines(), modules, seconds
+
+
+def files(folder: Path) -> set[Path]:
+    return {p.relative_to(folder) for p in folder.rglob("*")}
+
+
+@pytest.fixture
+def raw(tmp_path, fake_simulator) -> Path:
+    """Two raw assembly folders (sizes 3 and 4)."""
+    simulator = instantiate(fake_simulator)
+    for size in (3, 4):
+        sample = simulator.sample(size, np.random.default_rng(size))
+        sample.assembly.name, sample.info = f"a{size}", {}
+        export_raw(sample, tmp_path / "raw" / f"a{size}")
+    return tmp_path / "raw"
+
+
+def _spec(raw: Path) -> Path:
+    return raw / "a3" / "assembly.spec"
+
+
+CASES = {
+    "train size not in the data set": (
+        ("protocol=one_to_many", "train_size=9", TINY),
+        r"protocol one_to_many: sizes \[9\] are not in the data set \(sizes \[3, 4\]\); fix: ",
+    ),
+    "seed not an integer": (
+        ("seed=abc",),
+        r"override seed=abc: Value 'abc' .* Integer \(config key 'seed'\); fix: ",
+    ),
+    "fold count not an integer": (
+        ("protocol.folds=four",),
+        r"Integer \(config key 'protocol.folds'\); fix: ",
+    ),
+    "sizes not integers": (
+        ("dataset.sizes={3: many}",),
+        r"dataset.sizes=\{3: 'many'\} is not a mapping of integers; fix: ",
+    ),
+    "more folds than assemblies": (
+        ("protocol.folds=5", TINY),
+        r"protocol.folds=5 leaves fold 4 with 0 test and 6 training assemblies .*; "
+        r"fix: protocol.folds=4$",
+    ),
+    "two raw assemblies, four folds": (
+        ("dataset=raw", "dataset.path={raw}", "dataset.sizes=null"),
+        r"protocol intra: protocol.folds=4 leaves fold 0 with 2 test and 0 training assemblies "
+        r"\(assemblies per size \{3: 1, 4: 1\}.*; fix: a larger data set",
+    ),
+    "raw path missing": (
+        ("dataset=raw", "dataset.path={raw}/nowhere"),
+        r"{raw}/nowhere: not a folder; fix: set dataset.path to a folder of raw assembly folders",
+    ),
+    "raw path not given": (
+        ("dataset=raw",),
+        r"dataset=raw needs dataset.path; fix: add dataset.path=",
+    ),
+    "malformed raw folder": (
+        ("dataset=raw", "dataset.path={raw}"),
+        r"1 of 2 raw folders under {raw} is malformed: {raw}/a3/assembly.spec:2: .*; fix: ",
+    ),
+    "unknown config option": (
+        ("protocol=sideways",),
+        r"Could not find 'protocol/sideways'.*; fix: ",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", CASES, ids=list(CASES))
+def test_bad_input_is_one_line_exit_2_and_nothing_written(tmp_path, raw, case):
+    overrides, expected = CASES[case]
+    if case == "malformed raw folder":
+        spec = _spec(raw)
+        lines = spec.read_text().splitlines()
+        spec.write_text("\n".join([lines[0], lines[1].replace(" 0;", " 2;", 1), *lines[2:]]))
+    before = files(tmp_path)
+    args = [o.replace("{raw}", str(raw)) for o in overrides]
+    code, lines, modules, seconds = grace(tmp_path, *args, f"paths.data_dir={tmp_path / 'd'}")
+    assert code == 2, lines
+    assert len(lines) == 1, lines
+    assert lines[0].startswith("grace: error: ")
+    assert re.search(expected.replace("{raw}", re.escape(str(raw))), lines[0]), lines[0]
+    assert files(tmp_path) == before  # no run folder, no log, no cache
+    assert not modules & set(HEAVY), f"{case}: heavy imports before the error ({seconds:.1f} s)"
+
+
+def test_an_option_the_protocol_ignores_is_named_at_once(tmp_path):
+    """`train_size=5 protocol=intra`: a warning before any work; the run itself goes on (here it
+    then stops on a second, deliberate error, so the test does no work either)."""
+    code, lines, modules, _ = grace(
+        tmp_path, "train_size=5", "protocol=intra", TINY, "protocol.folds=9"
+    )
+    assert lines[0] == (
+        "grace: warning: train_size=5 is ignored by protocol=intra (it does not use train_size); "
+        "fix: drop it, or choose a protocol that uses it (docs/protocols.md)"
+    )
+    assert code == 2 and len(lines) == 2 and lines[1].startswith("grace: error: protocol intra")
+    assert not modules & set(HEAVY)
+
+
+@pytest.mark.parametrize("ask", [("debug=true",), ("HYDRA_FULL_ERROR=1",)])
+def test_the_traceback_comes_on_request(tmp_path, ask):
+    env = {"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"}
+    overrides = ["seed=abc"]
+    if ask[0].startswith("HYDRA"):
+        env["HYDRA_FULL_ERROR"] = "1"
+    else:
+        overrides += ask
+    done = subprocess.run(
+        [sys.executable, "-m", "grace", *overrides],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode != 0
+    assert "Traceback (most recent call last)" in done.stderr
+    assert "could not be converted to Integer" in done.stderr
+    assert not list(tmp_path.iterdir())

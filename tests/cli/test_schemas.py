@@ -1,0 +1,20 @@
+import pytest
+
+from grace import CONF_DIR
+from grace.cli.schemas import task_schemas
+
+
+def test_every_task_config_gets_the_settings_of_its_module_as_schema():
+    schemas = task_schemas()
+    assert set(schemas) == {f"task/{p.stem}" for p in (CONF_DIR / "task").glob("*.yaml")}
+    assert schemas["task/experiment"].__name__ == "ExperimentSettings"
+    # a subclass of the experiment's settings, picked from its own module only
+    assert schemas["task/feasibility"].__name__ == "FeasibilitySettings"
+
+
+def test_a_task_module_without_settings_is_named(tmp_path):
+    (tmp_path / "task").mkdir()
+    target = "run: {_target_: grace.evaluation.report.write_results, _partial_: true}\n"
+    (tmp_path / "task" / "odd.yaml").write_text(target)
+    with pytest.raises(TypeError, match=r"grace\.evaluation\.report .* defines 0 TaskSettings"):
+        task_schemas(tmp_path)
