@@ -3,8 +3,8 @@
 Labels the same generated frames with each simulator of grace.data.stats.SIMULATORS (generated,
 or read from the cache, like `task=generate`): the run's config is composed again with each
 `simulator=<name>`, every other override kept. Writes their assembly-by-assembly comparison
-(grace.data.stats.simulator_comparison) to simulators.json in the run folder and prints it, e.g.
-with `scale=default` for the simulator table of the documentation.
+(grace.data.stats.simulator_comparison) to simulators.json in the run folder, and the same as a
+markdown table to simulators.md (the simulator table of docs/world.md, with `scale=default`).
 """
 
 from __future__ import annotations
@@ -19,9 +19,10 @@ from omegaconf import DictConfig
 
 from grace import CONF_DIR
 from grace.cli.runner import TaskSettings, task_overrides
-from grace.data.atomic import strict_json, write_text_atomic
+from grace.data.atomic import write_json_atomic, write_text_atomic
 from grace.data.stats import SIMULATORS, simulator_comparison
 from grace.domain.sample import LabelledAssembly
+from grace.evaluation.tables import markdown_table
 
 
 @dataclass
@@ -44,6 +45,27 @@ def run(cfg: DictConfig) -> None:
     """Label the data set's frames with every simulator; write and print the comparison."""
     overrides = task_overrides()
     labelled = {name: labelled_by(name, overrides) for name in SIMULATORS}
-    text = strict_json(simulator_comparison(labelled))
-    write_text_atomic(Path(cfg.paths.output_dir) / "simulators.json", text + "\n")
-    print(text)
+    comparison = simulator_comparison(labelled)
+    out = Path(cfg.paths.output_dir)
+    write_json_atomic(out / "simulators.json", comparison)
+    table = comparison_table(comparison)
+    write_text_atomic(out / "simulators.md", table + "\n")
+    print(table)
+
+
+def comparison_table(comparison: dict[str, dict]) -> str:
+    """One row per size: infeasible shares per simulator, what the robot and second arm change."""
+    head = ["size", "assemblies", *(f"infeasible {n}" for n in SIMULATORS)]
+    head += ["labels ≠ boxes", "labels ≠ single_arm", "feasible only with two arms"]
+    rows = [
+        [
+            f"A{size}",
+            str(c["assemblies"]),
+            *(f"{c['infeasible_fraction'][n]:.3f}" for n in SIMULATORS),
+            f"{c['labels_changed_vs_boxes']:.3f}",
+            f"{c['labels_changed_vs_single_arm']:.3f}",
+            f"{c['feasible_only_with_two_arms']:.3f}",
+        ]
+        for size, c in comparison.items()
+    ]
+    return markdown_table(head, rows)

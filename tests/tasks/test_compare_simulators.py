@@ -27,3 +27,6 @@ def test_the_comparison_labels_the_same_frames_with_every_simulator(tmp_path):
     report = json.loads((out / "simulators.json").read_text())
     assert set(report) == {"4"} and report["4"]["assemblies"] == 3
     assert set(report["4"]["infeasible_fraction"]) == {"dual_arm", "single_arm", "boxes"}
+    table = (out / "simulators.md").read_text().splitlines()
+    assert table[0].startswith("| size | assemblies | infeasible dual_arm")
+    assert table[2].startswith("| A4 | 3 |") and len(table) == 3
