@@ -123,9 +123,9 @@ def requested_sizes(sizes: Mapping[Any, Any] | None) -> dict[int, int]:
             f"dataset.sizes={dict(sizes)} is not a mapping of integers; "
             'fix: e.g. dataset.sizes="{3: 8, 4: 8}"'
         ) from None
-    bad = {k: v for k, v in out.items() if k < 1 or v < 0}
+    bad = {k: v for k, v in out.items() if k < 1 or v < 1}
     if bad:
-        raise UserError(f"dataset.sizes has invalid entries {bad}; fix: sizes ≥ 1 and counts ≥ 0")
+        raise UserError(f"dataset.sizes has invalid entries {bad}; fix: sizes ≥ 1 and counts ≥ 1")
     return dict(sorted(out.items()))
 
 
@@ -355,7 +355,19 @@ class GeneratedSource:
 
     def counts(self) -> dict[int, int]:
         """Assemblies per size that :meth:`load` returns, known before any is generated."""
-        return {size: n for size, n in requested_sizes(self.sizes).items() if n > 0}
+        return requested_sizes(self.sizes)
+
+    def check_sizes(self) -> None:
+        """A UserError for sizes the simulator cannot build: beyond the cell's part slots
+        (`simulator.cell.max_parts`, docs/world.md), or not a mapping of positive counts."""
+        counts = self.counts()
+        limit = self.simulator.get("cell", {}).get("max_parts")
+        beyond = [size for size in counts if limit is not None and size > int(limit)]
+        if beyond:
+            raise UserError(
+                f"dataset.sizes: sizes {beyond} exceed simulator.cell.max_parts={limit} (the "
+                f"cell's part slots); fix: sizes from 1 to {limit}"
+            )
 
     def generate(self, shard: int | None = None, num_shards: int | None = None) -> Generation:
         """Generate this run's share of the missing chunks.
