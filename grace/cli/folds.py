@@ -22,6 +22,7 @@ from tqdm.contrib.logging import logging_redirect_tqdm
 from grace.cli.checks import protocol_split
 from grace.cli.logs import log_to_file
 from grace.cli.progress import ExperimentProgress
+from grace.cli.signals import as_worker
 from grace.domain.sample import LabelledAssembly
 from grace.evaluation.protocols import Fold, make_folds
 
@@ -37,8 +38,10 @@ def protocol_folds(cfg: DictConfig, sizes: list[int]) -> tuple[list[int], list[i
 def start_fold(cfg: DictConfig, fold: Fold, threads: int, parent: int) -> None:
     """What every fold does first, in whichever process runs it: seed by `seed + fold index`
     (so a fold's result does not depend on which folds ran before it or where), cap the threads,
-    and in a worker process (not `parent`) send all messages to the run's log file."""
+    and in a worker process (not `parent`) take a worker's signals (grace/cli/signals.py) and
+    send all messages to the run's log file."""
     if os.getpid() != parent:
+        as_worker()
         log_to_file(cfg.paths.log_file, f"fold {fold.index}")
     seed_everything(int(cfg.seed) + fold.index, workers=True, verbose=False)
     torch.set_num_threads(threads)
