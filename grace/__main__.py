@@ -14,7 +14,7 @@ from omegaconf import DictConfig
 
 from grace import CONF_DIR
 from grace.cli.preflight import debugging, preflight, run_dir_overrides, user_errors
-from grace.cli.signals import EXIT_INTERRUPTED, sigterm_as_interrupt
+from grace.cli.signals import EXIT_INTERRUPTED, sigterm_as_interrupt, stopped
 
 
 # An absolute path: found whether this module runs as __main__ or from the console script.
@@ -26,10 +26,17 @@ def run(cfg: DictConfig) -> float | None:
 
         with user_errors(debugging(sys.argv[1:]) or bool(cfg.debug)):
             return run_task(cfg)
+    except Exception:
+        if not stopped():  # a bug; else a worker or helper the same signal stopped
+            raise
+        _interrupted(cfg.paths.output_dir)
     except KeyboardInterrupt:
-        out = cfg.paths.output_dir
-        print(f"grace: interrupted; to resume: the same command with paths.output_dir={out}")
-        sys.exit(EXIT_INTERRUPTED)
+        _interrupted(cfg.paths.output_dir)
+
+
+def _interrupted(out: str) -> None:
+    print(f"grace: interrupted; to resume: the same command with paths.output_dir={out}")
+    sys.exit(EXIT_INTERRUPTED)
 
 
 def main() -> None:
@@ -42,7 +49,11 @@ def main() -> None:
     except KeyboardInterrupt:
         print("grace: interrupted before the run started; nothing was written", file=sys.stderr)
         sys.exit(EXIT_INTERRUPTED)
-    run()
+    try:
+        run()
+    except KeyboardInterrupt:  # while Hydra composes the config or sets up the run folder
+        print("grace: interrupted before the task started", file=sys.stderr)
+        sys.exit(EXIT_INTERRUPTED)
 
 
 if __name__ == "__main__":

@@ -77,11 +77,12 @@ class FakeSimulator:
     Robot rules, decided by the geometry so `label` needs no randomness: a 300 mm profile cannot
     be placed once a part two places away is (a non-local block; two such profiles make the
     assembly infeasible by collision), and the first part is out of reach when it lies at
-    y = 30 (reach).
+    y = 30 (reach). `delay` seconds of sleep per sample stand for a real simulator's work.
     """
 
-    def __init__(self, spacing: float = 250.0) -> None:
+    def __init__(self, spacing: float = 250.0, delay: float = 0.0) -> None:
         self.spacing = spacing
+        self.delay = delay
 
     def generate(self, n_parts: int, rng: np.random.Generator) -> Assembly:
         parts = [
@@ -134,6 +135,7 @@ class FakeSimulator:
         return LabelledAssembly(assembly, truth, info)
 
     def sample(self, n_parts: int, rng: np.random.Generator) -> LabelledAssembly:
+        time.sleep(self.delay)
         return self.label(self.generate(n_parts, rng))
 
 

@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 
+from grace.cli.values import check_bounds, check_paths
 from grace.evaluation.protocols import check_fold_sizes, protocol_sizes
 
 CROSS_VALIDATED = ("experiment", "feasibility")
@@ -56,9 +57,13 @@ def ignored_options(cfg: DictConfig, overrides: list[str]) -> list[str]:
 
 def check_config(cfg: DictConfig) -> None:
     """Raise a UserError (one line) for a config that cannot run."""
+    check_bounds(cfg)
+    check_paths(cfg)
+    source = instantiate(cfg.dataset)
+    if hasattr(source, "check_sizes"):  # a generated set: its sizes, before any generation
+        source.check_sizes()
     if cfg.task.name not in CROSS_VALIDATED:
         return
-    source = instantiate(cfg.dataset)
     counts = source.counts() if hasattr(source, "counts") else None
     proto = cfg.protocol
     if counts is not None:

@@ -13,8 +13,10 @@ from pathlib import Path
 
 import lightning.pytorch as pl
 import numpy as np
+import torch
+from hydra.errors import InstantiationException
 from hydra.utils import instantiate
-from lightning.pytorch.callbacks import ModelCheckpoint
+from lightning.fabric.utilities.exceptions import MisconfigurationException
 from omegaconf import DictConfig, OmegaConf, open_dict
 
 from grace.data.atomic import write_text_atomic
@@ -23,6 +25,7 @@ from grace.errors import UserError
 from grace.model.checkpoints import CHECKPOINT, KEPT_CONFIG, checkpoint_weights
 from grace.model.fit import fit
 from grace.model.module import GraceModule
+from grace.model.resume import LastCheckpoint
 
 
 def _resolved(cfg: DictConfig) -> dict:
@@ -85,15 +88,30 @@ def train_module(
     if extra_states:
         datamodule.train_set.extend(extra_states, datamodule.chunk_size)
     configured = instantiate_named(cfg.callbacks)
-    resume = resume_from(cfg, out_dir, configured)
-    keep_config(cfg, out_dir)
-    trainer = instantiate(
-        cfg.trainer,
+    trainer = _trainer(
+        cfg,
         callbacks=[*configured, *callbacks],
         logger=instantiate_named(cfg.logger),
         **({} if val else {"limit_val_batches": 0}),
     )
+    resume = resume_from(cfg, out_dir, configured)
+    keep_config(cfg, out_dir)
     return fit(module, datamodule, trainer, ckpt_path=resume)
+
+
+def _trainer(cfg: DictConfig, **kwargs: object) -> pl.Trainer:
+    """The configured Trainer; an accelerator this machine lacks (`trainer=gpu` where torch sees
+    no CUDA device) is one line with the fix, before anything is written."""
+    try:
+        return instantiate(cfg.trainer, **kwargs)
+    except InstantiationException as error:
+        if not isinstance(error.__cause__, MisconfigurationException):
+            raise
+        raise UserError(
+            f"trainer.accelerator={cfg.trainer.accelerator}: {error.__cause__}, torch "
+            f"{torch.__version__} sees no such device; fix: trainer=cpu, or a CUDA build of "
+            "torch on a machine with a GPU"
+        ) from None
 
 
 RUN_ONLY = (
@@ -116,17 +134,11 @@ def _results_keys(node: dict, ignored: Sequence[str] = RUN_ONLY) -> dict:
 
 
 def _last_checkpoint(callbacks: Sequence[object]) -> Path | None:
-    """Where the configured callbacks write the checkpoint of the latest epoch, or None.
-
-    Our `last_checkpoint` (an unmonitored ModelCheckpoint named `last`) or Lightning's
-    `save_last` of any ModelCheckpoint (which writes it only in epochs that write a best one).
-    """
-    for c in callbacks:
-        if not isinstance(c, ModelCheckpoint) or c.dirpath is None:
-            continue
-        if c.save_last or (c.monitor is None and c.filename == c.CHECKPOINT_NAME_LAST):
-            return Path(c.dirpath) / f"{c.CHECKPOINT_NAME_LAST}{c.FILE_EXTENSION}"
-    return None
+    """Where the configured callbacks write the checkpoint a rerun resumes from, or None: our
+    `last_checkpoint` (grace/model/resume.py), the only one written after the epoch's lr
+    scheduler steps."""
+    found = [c.path for c in callbacks if isinstance(c, LastCheckpoint)]
+    return found[0] if found else None
 
 
 def resume_from(cfg: DictConfig, out_dir: str | Path, callbacks: Sequence[object]) -> str | None:

@@ -24,6 +24,7 @@ from grace.cli.checks import protocol_split
 from grace.cli.determinism import cap_threads
 from grace.cli.logs import log_to_file
 from grace.cli.progress import ExperimentProgress
+from grace.cli.signals import as_worker
 from grace.domain.canonical import copy_groups
 from grace.domain.sample import LabelledAssembly
 from grace.evaluation.protocols import Fold, make_folds
@@ -52,8 +53,10 @@ def protocol_folds(
 def start_fold(cfg: DictConfig, fold: Fold, threads: int, parent: int) -> None:
     """What every fold does first, in whichever process runs it: seed by `seed + fold index`
     (so a fold's result does not depend on which folds ran before it or where), cap the threads,
-    and in a worker process (not `parent`) send all messages to the run's log file."""
+    and in a worker process (not `parent`) take a worker's signals (grace/cli/signals.py) and
+    send all messages to the run's log file."""
     if os.getpid() != parent:
+        as_worker()
         log_to_file(cfg.paths.log_file, f"fold {fold.index}")
     seed_everything(int(cfg.seed) + fold.index, workers=True, verbose=False)
     cap_threads(threads)

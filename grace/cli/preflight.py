@@ -3,7 +3,8 @@
 `python -m grace <overrides>` first composes the config with the light schemas (no torch, no
 Lightning: about a second) and runs grace/cli/checks.py on it, then composes it again with every
 schema once the heavy libraries are loaded. Only then does Hydra create the run folder and run
-the task, so a bad override, a missing or malformed data folder or a protocol the data set cannot
+the task, so a bad override, a value out of its range, an unusable data or run folder
+(grace/cli/values.py), a missing or malformed data folder or a protocol the data set cannot
 serve stops the run before anything exists on disk. Sweeps (`-m`) are checked per job instead.
 
 A user error prints as one line on stderr, exit code 2; `HYDRA_FULL_ERROR=1` or `debug=true`
@@ -28,6 +29,7 @@ from omegaconf.errors import OmegaConfBaseException
 from grace import CONF_DIR
 from grace.cli.checks import check_config, ignored_options
 from grace.cli.schemas import light_schemas, referenced_schemas, register_schemas
+from grace.cli.values import check_bounds
 from grace.errors import UserError
 
 EXIT_USER_ERROR = 2
@@ -118,7 +120,7 @@ def preflight(argv: list[str]) -> None:
         print(f"grace: warning: {warning}", file=sys.stderr)
     check_config(cfg)
     register_schemas()
-    _compose(overrides, set())
+    check_bounds(_compose(overrides, set()))  # keys of the groups the light compose left open
 
 
 def run_dir_overrides(argv: list[str]) -> list[str]:

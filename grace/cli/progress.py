@@ -10,15 +10,18 @@ not interactive (a log file, CI) the bars are off and a line per finished fold i
 
 from __future__ import annotations
 
+import contextlib
 import logging
-import multiprocessing
 import threading
 import time
+from multiprocessing.managers import SyncManager
 from types import TracebackType
 from typing import Any
 
 import lightning.pytorch as pl
 from tqdm import tqdm
+
+from grace.cli.signals import ignore_stops
 
 log = logging.getLogger(__name__)
 
@@ -94,7 +97,8 @@ class ExperimentProgress:
 
     def __init__(self, folds: int) -> None:
         self.folds = folds
-        self._manager = multiprocessing.Manager()
+        self._manager = SyncManager()
+        self._manager.start(ignore_stops)  # a signal to the process group leaves it to __exit__
         self.queue = self._manager.Queue()
         self._bars: dict[int, _FoldBar] = {}
         self._done = 0
@@ -116,7 +120,9 @@ class ExperimentProgress:
         error: BaseException | None,
         trace: TracebackType | None,
     ) -> None:
-        self.queue.put(None)
+        # The queue's server gone (killed) ends the listener too.
+        with contextlib.suppress(OSError, EOFError):
+            self.queue.put(None)
         self._thread.join()
         for bar in self._bars.values():
             bar.bar.close()
@@ -130,9 +136,16 @@ class ExperimentProgress:
             self._bars[fold] = _FoldBar(fold, position)
         return self._bars[fold]
 
+    def _next(self) -> tuple | None:
+        try:
+            return self.queue.get()
+        except (OSError, EOFError):
+            return None
+
     def _listen(self) -> None:
-        """Draw every message until the sentinel; all tqdm calls happen in this thread."""
-        while (message := self.queue.get()) is not None:
+        """Draw every message until the sentinel (or the queue's server is gone); all tqdm
+        calls happen in this thread."""
+        while (message := self._next()) is not None:
             fold, kind, *payload = message
             if kind == "done":
                 bar = self._bars.pop(fold, None)

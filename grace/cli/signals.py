@@ -4,6 +4,12 @@ Python's default SIGTERM ends the main process on the spot: joblib's fold worker
 generation pool live on. As a KeyboardInterrupt it unwinds instead: joblib aborts and kills its
 workers, the generation pool terminates its own, and every file is written atomically, so the
 run leaves complete files only, from which a rerun resumes (grace/model/resume.py).
+
+A signal to the whole process group (`timeout`, `scancel`, `kill -- -<pgid>`, Ctrl-C) reaches
+the helpers too: fold workers die at once on SIGTERM and leave SIGINT to the main process
+(:func:`as_worker`), the progress display's queue server ignores both until the main process
+shuts it down (:func:`ignore_stops`), and whatever a dying worker makes the main process raise
+is read as the stop it is (:func:`stopped`), so the run ends with one line either way.
 """
 
 from __future__ import annotations
@@ -14,11 +20,34 @@ from types import FrameType
 EXIT_INTERRUPTED = 130
 """The shell's code for a run stopped by a signal (128 + SIGINT)."""
 
+_received: list[str] = []
+
 
 def _interrupt(signum: int, frame: FrameType | None) -> None:
+    _received.append(signal.Signals(signum).name)
     raise KeyboardInterrupt(f"signal {signal.Signals(signum).name}")
 
 
 def sigterm_as_interrupt() -> None:
-    """From now on SIGTERM raises KeyboardInterrupt in the main thread, as SIGINT does."""
+    """From now on SIGTERM raises KeyboardInterrupt in the main thread, as SIGINT does, and
+    either is remembered (:func:`stopped`)."""
     signal.signal(signal.SIGTERM, _interrupt)
+    signal.signal(signal.SIGINT, _interrupt)
+
+
+def stopped() -> bool:
+    """Whether this process received SIGTERM or SIGINT."""
+    return bool(_received)
+
+
+def as_worker() -> None:
+    """In a worker process: SIGTERM ends it at once, silently; SIGINT is left to the main
+    process, which stops its workers."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+def ignore_stops() -> None:
+    """In a helper process the main process shuts down itself (the progress queue's server)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)

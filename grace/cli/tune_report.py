@@ -10,7 +10,6 @@ grace/conf/experiment/<name>.yaml it is an experiment file (`experiment=<name>`)
 
 from __future__ import annotations
 
-import json
 import logging
 import shlex
 from collections import Counter
@@ -23,7 +22,7 @@ import optuna
 from omegaconf import DictConfig, OmegaConf
 
 from grace.cli.tune_space import nested
-from grace.data.atomic import write_text_atomic
+from grace.data.atomic import write_json_atomic, write_text_atomic
 from grace.visualisation.plots import save_figure
 
 log = logging.getLogger(__name__)
@@ -158,6 +157,6 @@ def write_report(
             out_dir / "importance.png",
             evaluator=evaluator,
         )
-    write_text_atomic(out_dir / "summary.json", json.dumps(summary, indent=2) + "\n")
+    write_json_atomic(out_dir / "summary.json", summary)
     write_text_atomic(out_dir / "summary.md", _markdown(summary))
     return TuneReport(summary["best"]["value"] if complete else None, message)

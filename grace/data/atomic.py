@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import json
+import math
 import os
 import tempfile
 from pathlib import Path
+from typing import Any
 
 
 def _read_umask() -> int:
@@ -33,3 +36,27 @@ def write_bytes_atomic(path: str | Path, data: bytes) -> None:
 
 def write_text_atomic(path: str | Path, text: str) -> None:
     write_bytes_atomic(path, text.encode("utf-8"))
+
+
+def finite_or_null(obj: Any) -> Any:
+    """`obj` with every non-finite float (NaN, ±Infinity) replaced by None, tuples as lists."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {key: finite_or_null(value) for key, value in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [finite_or_null(value) for value in obj]
+    return obj
+
+
+def strict_json(obj: Any, indent: int | None = 2) -> str:
+    """`obj` as strict JSON text (RFC 8259), which every parser reads: Python would write NaN and
+    Infinity, which strict parsers reject. A non-finite number becomes null: in every JSON file
+    grace writes, null in a number's place means undefined (NaN: an AUC without a positive
+    label) or unbounded (±∞: no complete sequence was scored); docs/operations.md."""
+    return json.dumps(finite_or_null(obj), indent=indent, allow_nan=False)
+
+
+def write_json_atomic(path: str | Path, obj: Any, indent: int | None = 2) -> None:
+    """Write `obj` atomically as strict JSON (:func:`strict_json`), ending with a newline."""
+    write_text_atomic(path, strict_json(obj, indent) + "\n")

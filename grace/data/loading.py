@@ -2,7 +2,9 @@
 
 :class:`RawSource` imports a folder of raw assembly folders (docs/raw-format.md) once and caches
 the import as shard files under `<data_dir>/raw-<key>/`, the key hashing the folders' paths and
-their files' sizes and modification times, so an edit re-imports. Like
+their files' sizes and modification times, so an edit re-imports. Its `manifest.json`, written
+after the shards, keeps each shard's record count and SHA-256: a cached shard that no longer
+matches is refused in one line naming it and the fix (docs/operations.md, "Cache integrity"). Like
 :class:`grace.data.store.GeneratedSource` (`dataset=generated`) its `load()` returns the
 assemblies ordered by size, then by folder path; `sizes` (size → count) selects the first `count`
 of each size (`null` = all of them).
@@ -17,10 +19,10 @@ from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 
-from grace.data.atomic import write_text_atomic
+from grace.data.atomic import write_json_atomic
 from grace.data.raw_format import RAW_FILES, find_raw_folders, import_raw_folders
-from grace.data.shards import SHARD_SUFFIX, read_shard, write_shard
-from grace.data.store import requested_sizes
+from grace.data.shards import SHARD_SUFFIX, ShardError, ShardInfo, read_shard, write_shard
+from grace.data.store import FORMAT_VERSION, requested_sizes
 from grace.domain.sample import LabelledAssembly
 from grace.errors import UserError
 
@@ -28,7 +30,7 @@ log = logging.getLogger(__name__)
 
 
 def _raw_key(folders: list[Path]) -> str:
-    digest = hashlib.sha256()
+    digest = hashlib.sha256(f"format {FORMAT_VERSION}".encode())
     for folder in folders:
         for name in RAW_FILES:
             path = folder / name
@@ -46,13 +48,22 @@ def _cache_folder(folders: list[Path], cache: str | Path) -> Path:
     return Path(cache).absolute() / f"raw-{_raw_key(folders)}"
 
 
-def _read_cache(target: Path) -> list[LabelledAssembly]:
-    sizes = json.loads((target / "manifest.json").read_text())["sizes"]
-    return [
-        s
-        for size in sorted(int(k) for k in sizes)
-        for s in read_shard(target / f"A{size}{SHARD_SUFFIX}")
-    ]
+def _read_cache(target: Path, root: str | Path) -> list[LabelledAssembly]:
+    """The cached import, every shard checked against the manifest; a mismatch is a UserError."""
+    manifest = target / "manifest.json"
+    fix = f"fix: delete {target} and rerun: the raw folders under {root} are imported again"
+    try:
+        shards = json.loads(manifest.read_bytes())["shards"]
+        expected = {int(size): ShardInfo.from_json(node) for size, node in shards.items()}
+    except (ValueError, KeyError, TypeError, AttributeError) as e:
+        raise UserError(f"{manifest}: cache manifest unreadable ({e}); {fix}") from None
+    samples = []
+    for size, info in sorted(expected.items()):
+        try:
+            samples += read_shard(target / f"A{size}{SHARD_SUFFIX}", info)
+        except ShardError as e:
+            raise UserError(f"{e}; {fix}") from None
+    return samples
 
 
 def import_raw_tree(root: str | Path, cache: str | Path) -> list[LabelledAssembly]:
@@ -61,17 +72,16 @@ def import_raw_tree(root: str | Path, cache: str | Path) -> list[LabelledAssembl
     target = _cache_folder(folders, cache)
     manifest = target / "manifest.json"
     if manifest.exists():
-        return _read_cache(target)
+        return _read_cache(target, root)
     samples = import_raw_folders(folders, root)  # raises before anything is written
     by_size: dict[int, list[LabelledAssembly]] = {}
     for sample in samples:
         by_size.setdefault(sample.size, []).append(sample)
-    for size, group in by_size.items():
-        write_shard(target / f"A{size}{SHARD_SUFFIX}", group)
-    counts = {str(size): len(group) for size, group in sorted(by_size.items())}
-    write_text_atomic(
-        manifest, json.dumps({"root": str(Path(root).absolute()), "sizes": counts}, indent=2) + "\n"
-    )
+    shards = {
+        str(size): write_shard(target / f"A{size}{SHARD_SUFFIX}", group).to_json()
+        for size, group in sorted(by_size.items())
+    }
+    write_json_atomic(manifest, {"root": str(Path(root).absolute()), "shards": shards}, indent=2)
     log.info("imported %d raw assemblies from %s into %s", len(samples), root, target)
     return [s for size in sorted(by_size) for s in by_size[size]]
 
@@ -82,7 +92,7 @@ def read_raw_tree(root: str | Path, cache: str | Path) -> list[LabelledAssembly]
     folders = find_raw_folders(root)
     target = _cache_folder(folders, cache)
     if (target / "manifest.json").exists():
-        return _read_cache(target)
+        return _read_cache(target, root)
     return sorted(import_raw_folders(folders, root), key=lambda s: s.size)
 
 

@@ -47,6 +47,15 @@ POSE_TOLERANCE = 1e-6
 """Largest deviation (rotation entries, and mm for z) from an exact table pose that import accepts:
 tools that write `cos 90°` as 6e-17 stay importable, a 45° turn or a 1 µm lift do not."""
 
+WORKSPACE_MM = 2000.0
+"""Largest |x| and |y| of a part's position (mm, world frame of docs/world.md: origin at the
+work-area centre): the cell's arms stand at x = ±520 mm and reach 820 mm, plus flange and gripper
+about 1.6 m from the centre, so nothing beyond 2 m can be handled in the cell."""
+
+MAX_DISTANCE_MM = 2 * math.sqrt(2) * WORKSPACE_MM
+"""Largest distance between two parallel surfaces in `distances.csv`: the diagonal of the
+workspace square (5657 mm)."""
+
 MAX_PARTS = 63
 """Ground-truth states are 64-bit part masks (grace.domain.orders), so 63 parts at most."""
 
@@ -82,8 +91,9 @@ def format_number(value: float) -> str:
 
 
 def _is_relation_value(value: float) -> bool:
-    """A distance between parallel planes (≥ 0 mm) or the orthogonal code −1."""
-    return math.isfinite(value) and (value >= 0 or value == -1)
+    """A distance between parallel planes (0 to :data:`MAX_DISTANCE_MM`) or the orthogonal code
+    −1."""
+    return math.isfinite(value) and (0 <= value <= MAX_DISTANCE_MM or value == -1)
 
 
 # ---------------------------------------------------------------- export
@@ -153,7 +163,12 @@ def _read_lines(path: Path) -> list[str]:
         raise _error(
             path, None, "missing file", f"every assembly folder needs {', '.join(RAW_FILES[:3])}"
         )
-    data = path.read_bytes().removeprefix(codecs.BOM_UTF8)
+    try:
+        data = path.read_bytes().removeprefix(codecs.BOM_UTF8)
+    except OSError as e:
+        raise _error(
+            path, None, f"cannot be read ({e.strerror})", "make it a readable file"
+        ) from None
     try:
         return data.decode("utf-8").splitlines()
     except UnicodeDecodeError as e:
@@ -224,6 +239,16 @@ def _check_pose(pose: np.ndarray, path: Path, line: int) -> None:
             f"pose turns the part by {degrees:.6g}° about z, not a multiple of 90°",
             "rotate parts by 0, 90, 180 or 270° about z: parts are axis-aligned",
         )
+    for axis, value in (("x", pose[0, 3]), ("y", pose[1, 3])):
+        if abs(value) > WORKSPACE_MM:
+            raise _error(
+                path,
+                line,
+                f"pose puts the part at {axis} = {value:.6g} mm, outside the cell's "
+                f"workspace (|x|, |y| ≤ {format_number(WORKSPACE_MM)} mm)",
+                "write positions in millimetres in the world frame of docs/world.md (origin at "
+                "the work-area centre)",
+            )
     if not _close(pose[2, 3], 0.0):
         raise _error(
             path,
@@ -244,7 +269,8 @@ def _parse_pose(text: str, path: Path, line: int) -> np.ndarray:
             "write 16 numbers row-major, ';' between entries and '&' between the 4 rows",
         )
     pose = np.array([[_parse_number(c, path, line, "pose entry") for c in row] for row in cells])
-    _check_pose(pose, path, line)
+    with np.errstate(over="ignore", invalid="ignore"):  # a huge entry is refused below anyway
+        _check_pose(pose, path, line)
     return pose
 
 
@@ -343,11 +369,13 @@ def _parse_distances(path: Path, assembly: Assembly) -> np.ndarray:
                 )
         value = _parse_number(fields[2], path, number, "relation value")
         if not _is_relation_value(value):
+            problem = "is negative" if value < 0 else "is beyond the cell's workspace"
             raise _error(
                 path,
                 number,
-                f"relation value {fields[2]} is negative",
-                "write a distance ≥ 0 in mm, or -1 for orthogonal surfaces",
+                f"relation value {fields[2]} {problem}",
+                f"write a distance from 0 to {MAX_DISTANCE_MM:.0f} mm, or -1 for orthogonal "
+                "surfaces",
             )
         i, j = index[fields[0]], index[fields[1]]
         pair = (min(i, j), max(i, j))

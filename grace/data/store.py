@@ -1,22 +1,27 @@
-"""Generated data sets: cached, resumable, shardable and byte-deterministic.
+"""Generated data sets: cached, resumable, shardable, checked and byte-deterministic.
 
 :class:`GeneratedSource` (`dataset=generated`) is the data source. Layout:
 `<data_dir>/generated-<key>/` where the key hashes everything that decides the contents: the
 simulator config, the seed, the record format and the source of the packages that make the data
 (domain, simulation), so a change of the world's code never serves stale data. Inside, one shard
-file per chunk of consecutive assemblies of one size, `A<size>/<start>-<stop>.jsonl.gz`, plus a
-`<start>-<stop>.seconds.json` timing sidecar (timings vary between runs, so they stay out of the
-data bytes).
+file per chunk of consecutive assemblies of one size, `A<size>/<start>-<stop>.jsonl.gz`, and its
+manifest `<start>-<stop>.json`, written atomically after it: the shard's record count and SHA-256
+and the generation time of each assembly (timings vary between runs, so they stay out of the
+data bytes). A chunk exists once its manifest does.
 
 Assembly i of size n is drawn from its own generator seeded by (seed, n, i), so the data do not
-depend on chunking, sharding or the number of workers. A chunk is written atomically once done;
-a rerun skips finished chunks (resume), and `dataset.shard=i dataset.num_shards=n` makes a run
-generate only every n-th chunk from the i-th, so several processes or machines can share the
-work; any later unsharded run (or :meth:`GeneratedSource.load`) finds them and only fills gaps.
+depend on chunking, sharding or the number of workers or processes. A rerun skips finished chunks
+(resume), and `dataset.shard=i dataset.num_shards=n` makes a run generate only every n-th chunk
+from the i-th; any later unsharded run (or :meth:`GeneratedSource.load`) finds them and only fills
+gaps. Every run checks each chunk against its manifest first: an empty, short, truncated or
+altered shard or manifest is reported in one line naming the file, moved to `<key>/corrupt/` and
+generated again. Processes generating one data set at once share its chunks through claim files
+(grace/data/claims.py) and wait for each other's. docs/operations.md, "Cache integrity".
 """
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import logging
@@ -34,15 +39,27 @@ from hydra.utils import instantiate
 from omegaconf import OmegaConf
 from tqdm import tqdm
 
-from grace.data.atomic import write_text_atomic
-from grace.data.shards import SHARD_SUFFIX, read_shard, write_shard
+from grace.data import claims
+from grace.data.atomic import write_json_atomic, write_text_atomic
+from grace.data.shards import (
+    SHARD_SUFFIX,
+    ShardError,
+    ShardInfo,
+    check_shard,
+    read_shard,
+    write_shard,
+)
 from grace.domain.sample import LabelledAssembly
 from grace.errors import UserError
 
 log = logging.getLogger(__name__)
 
-FORMAT_VERSION = 1
-"""Bump when the record layout or the seeding scheme changes: it is part of the cache key."""
+FORMAT_VERSION = 2
+"""Bump when the record layout, the seeding scheme or the files of a chunk change: it is part of
+the cache key. 2: a checked manifest per chunk replaces the timing sidecar."""
+
+CLAIM_POLL_SECONDS = 0.5
+"""How often a run waiting for chunks that other processes generate looks again."""
 
 SOURCE_PACKAGES = ("domain", "simulation")
 """Packages under `grace/` whose source is hashed into the cache key."""
@@ -63,8 +80,15 @@ class Chunk:
     def path(self, root: Path) -> Path:
         return root / f"{self.stem}{SHARD_SUFFIX}"
 
-    def seconds_path(self, root: Path) -> Path:
-        return root / f"{self.stem}.seconds.json"
+    def manifest_path(self, root: Path) -> Path:
+        return root / f"{self.stem}.json"
+
+    def claim_path(self, root: Path) -> Path:
+        return root / f"{self.stem}.claim"
+
+    @property
+    def count(self) -> int:
+        return self.stop - self.start
 
 
 @dataclass(frozen=True)
@@ -99,9 +123,9 @@ def requested_sizes(sizes: Mapping[Any, Any] | None) -> dict[int, int]:
             f"dataset.sizes={dict(sizes)} is not a mapping of integers; "
             'fix: e.g. dataset.sizes="{3: 8, 4: 8}"'
         ) from None
-    bad = {k: v for k, v in out.items() if k < 1 or v < 0}
+    bad = {k: v for k, v in out.items() if k < 1 or v < 1}
     if bad:
-        raise UserError(f"dataset.sizes has invalid entries {bad}; fix: sizes ≥ 1 and counts ≥ 0")
+        raise UserError(f"dataset.sizes has invalid entries {bad}; fix: sizes ≥ 1 and counts ≥ 1")
     return dict(sorted(out.items()))
 
 
@@ -140,22 +164,75 @@ def _sample(simulator: Any, seed: int, size: int, index: int) -> tuple[LabelledA
     return sample, seconds
 
 
-def _write_chunk(
+def _generate_chunk(
     simulator: Any, seed: int, chunk: Chunk, root: Path, progress: tqdm | None = None
-) -> int:
-    samples, seconds = [], []
-    for index in range(chunk.start, chunk.stop):
+) -> int | None:
+    """Generate and write `chunk` unless another live process holds its claim (None then).
+
+    0 if the chunk turned out done meanwhile. The shard goes first, its manifest last: a chunk
+    whose manifest exists is complete."""
+    claim = chunk.claim_path(root)
+    if not claims.claim(claim):
+        return None
+    try:
+        if chunk.manifest_path(root).exists():
+            return 0
+        samples, seconds = [], []
+        for index in range(chunk.start, chunk.stop):
+            _stop_if_orphaned()
+            sample, s = _sample(simulator, seed, chunk.size, index)
+            samples.append(sample)
+            seconds.append(s)
+            claims.touch(claim)
+            if progress is not None:
+                progress.update(1)
         _stop_if_orphaned()
-        sample, s = _sample(simulator, seed, chunk.size, index)
-        samples.append(sample)
-        seconds.append(s)
-        if progress is not None:
-            progress.update(1)
-    _stop_if_orphaned()
-    # Sidecar first: a chunk file on disk always has its timings.
-    write_text_atomic(chunk.seconds_path(root), json.dumps({"seconds": seconds}))
-    write_shard(chunk.path(root), samples)
-    return len(samples)
+        info = write_shard(chunk.path(root), samples)
+        write_json_atomic(chunk.manifest_path(root), {"shard": info.to_json(), "seconds": seconds})
+        return len(samples)
+    finally:
+        claims.release(claim)
+
+
+def _read_manifest(chunk: Chunk, root: Path) -> dict[str, Any]:
+    """The manifest of a chunk, checked for the chunk's record count; ShardError if unreadable."""
+    path = chunk.manifest_path(root)
+    try:
+        node = json.loads(path.read_bytes())
+        info = ShardInfo.from_json(node["shard"])
+        seconds = [float(t) for t in node["seconds"]]
+    except (ValueError, KeyError, TypeError) as e:
+        raise ShardError(f"{path}: manifest unreadable ({type(e).__name__}: {e})") from None
+    if info.records != chunk.count or len(seconds) != chunk.count:
+        raise ShardError(
+            f"{path}: manifest records {info.records} assemblies and {len(seconds)} timings, "
+            f"its chunk holds {chunk.count}"
+        )
+    return {"shard": info, "seconds": seconds}
+
+
+def _check_chunk(chunk: Chunk, root: Path) -> bool:
+    """Whether `chunk` exists (False: not generated yet); ShardError if it is corrupted."""
+    if not chunk.manifest_path(root).exists():
+        return False
+    check_shard(chunk.path(root), _read_manifest(chunk, root)["shard"])
+    return True
+
+
+def _set_aside(chunk: Chunk, root: Path, error: ShardError) -> None:
+    """Move a corrupted chunk's files to `<root>/corrupt/` (kept for inspection) and say so."""
+    stamp = time.strftime("%Y%m%d-%H%M%S")
+    moved = []
+    for path in (chunk.path(root), chunk.manifest_path(root)):
+        target = root / "corrupt" / path.relative_to(root).parent / f"{stamp}-{path.name}"
+        target.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            os.replace(path, target)
+            moved.append(target)
+        except FileNotFoundError:
+            pass
+    where = moved[0].parent if moved else root / "corrupt"
+    log.warning("%s; moved to %s, generating it again", error, where)
 
 
 _worker_simulator: Any = None
@@ -184,33 +261,60 @@ def _init_worker(simulator_cfg: dict[str, Any], parent: int) -> None:
     _worker_simulator = build_simulator(simulator_cfg)
 
 
-def _worker_chunk(args: tuple[int, Chunk, Path]) -> int:
+def _worker_chunk(args: tuple[int, Chunk, Path]) -> tuple[Chunk, int | None]:
     seed, chunk, root = args
-    return _write_chunk(_worker_simulator, seed, chunk, root)
+    return chunk, _generate_chunk(_worker_simulator, seed, chunk, root)
 
 
 def _run(
     pending: list[Chunk], simulator_cfg: dict[str, Any], seed: int, root: Path, workers: int
 ) -> int:
+    """Generate the `pending` chunks: those another process claims are left to it, and waited
+    for (or taken over if their owner dies). Returns the assemblies generated here."""
     # Built here first, so a bad simulator config fails once, in this process (a pool would
     # restart workers whose initializer fails, forever).
     simulator = build_simulator(simulator_cfg)
-    total = sum(c.stop - c.start for c in pending)
-    with tqdm(total=total, desc=f"generate {root.name}", unit="asm", dynamic_ncols=True) as bar:
-        if workers <= 1 or len(pending) <= 1:
-            return sum(_write_chunk(simulator, seed, c, root, bar) for c in pending)
+    # Largest assemblies first, so no long chunk is left running alone at the end.
+    pending = sorted(pending, key=lambda c: -c.size)
+    total = sum(c.count for c in pending)
+    generated, others = 0, 0
+    pool = None
+    if workers > 1 and len(pending) > 1:
         ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
-        done = 0
-        # Largest assemblies first, so no long chunk is left running alone at the end.
-        jobs = [(seed, c, root) for c in sorted(pending, key=lambda c: -c.size)]
         init = (simulator_cfg, os.getpid())
-        # Leaving the block for any reason (an error, Ctrl-C, SIGTERM) terminates the workers;
-        # chunks are written atomically, so none is left half-written.
-        with ctx.Pool(min(workers, len(pending)), _init_worker, init) as pool:
-            for n in pool.imap_unordered(_worker_chunk, jobs):
-                bar.update(n)
-                done += n
-        return done
+        pool = ctx.Pool(min(workers, len(pending)), _init_worker, init)
+    # Leaving the block for any reason (an error, Ctrl-C, SIGTERM) terminates the workers;
+    # shards and manifests are written atomically, so none is left half-written.
+    with (
+        pool or contextlib.nullcontext(),
+        tqdm(total=total, desc=f"generate {root.name}", unit="asm", dynamic_ncols=True) as bar,
+    ):
+        while pending:
+            if pool is None:
+                results = [(c, _generate_chunk(simulator, seed, c, root, bar)) for c in pending]
+            else:
+                jobs = [(seed, c, root) for c in pending]
+                results = list(pool.imap_unordered(_worker_chunk, jobs))
+                bar.update(sum(n or 0 for _, n in results))
+            generated += sum(n or 0 for _, n in results)
+            busy = [c for c, n in results if n is None]
+            pending = _wait_for_others(busy, root)
+            others += sum(c.count for c in busy if c not in pending)
+            bar.update(sum(c.count for c in busy if c not in pending))
+    if others:
+        log.info("%d assemblies of %s were generated by other processes", others, root)
+    return generated
+
+
+def _wait_for_others(busy: list[Chunk], root: Path) -> list[Chunk]:
+    """Wait until a chunk that other processes claimed is done or free to take over; return
+    those not done."""
+    while busy:
+        left = [c for c in busy if not c.manifest_path(root).exists()]
+        if len(left) < len(busy) or not all(claims.holder_alive(c.claim_path(root)) for c in left):
+            return left
+        time.sleep(CLAIM_POLL_SECONDS)
+    return busy
 
 
 @dataclass
@@ -251,7 +355,19 @@ class GeneratedSource:
 
     def counts(self) -> dict[int, int]:
         """Assemblies per size that :meth:`load` returns, known before any is generated."""
-        return {size: n for size, n in requested_sizes(self.sizes).items() if n > 0}
+        return requested_sizes(self.sizes)
+
+    def check_sizes(self) -> None:
+        """A UserError for sizes the simulator cannot build: beyond the cell's part slots
+        (`simulator.cell.max_parts`, docs/world.md), or not a mapping of positive counts."""
+        counts = self.counts()
+        limit = self.simulator.get("cell", {}).get("max_parts")
+        beyond = [size for size in counts if limit is not None and size > int(limit)]
+        if beyond:
+            raise UserError(
+                f"dataset.sizes: sizes {beyond} exceed simulator.cell.max_parts={limit} (the "
+                f"cell's part slots); fix: sizes from 1 to {limit}"
+            )
 
     def generate(self, shard: int | None = None, num_shards: int | None = None) -> Generation:
         """Generate this run's share of the missing chunks.
@@ -272,14 +388,19 @@ class GeneratedSource:
         if not manifest.exists():
             text = json.dumps(self.key_config(), sort_keys=True, indent=2) + "\n"
             write_text_atomic(manifest, text)
-        mine = [
-            c for k, c in enumerate(chunks) if k % num_shards == shard and not c.path(root).exists()
-        ]
+        done = set()
+        for chunk in chunks:
+            try:
+                if _check_chunk(chunk, root):
+                    done.add(chunk)
+            except ShardError as e:
+                _set_aside(chunk, root, e)
+        mine = [c for k, c in enumerate(chunks) if k % num_shards == shard and c not in done]
         start = time.perf_counter()
         simulator = dict(self.simulator)
         generated = _run(mine, simulator, self.seed, root, self.workers) if mine else 0
         wall = time.perf_counter() - start
-        missing = sum(not c.path(root).exists() for c in chunks)
+        missing = sum(not c.manifest_path(root).exists() for c in chunks)
         log.info(
             "%s: %d assemblies generated in %.1f s wall (%d workers); %d of %d chunks missing",
             root, generated, wall, self.workers, missing, len(chunks),
@@ -293,15 +414,25 @@ class GeneratedSource:
 
 
 def read_chunks(root: Path, chunks: list[Chunk]) -> list[LabelledAssembly]:
-    """The assemblies of `chunks` in order (size ascending, then index)."""
-    return [sample for chunk in chunks for sample in read_shard(chunk.path(root))]
+    """The assemblies of `chunks` in order (size ascending, then index), each shard checked
+    against its manifest once more (a UserError naming the file if it changed since)."""
+    samples = []
+    for chunk in chunks:
+        try:
+            samples += read_shard(chunk.path(root), _read_manifest(chunk, root)["shard"])
+        except ShardError as e:
+            raise UserError(
+                f"{e}; fix: rerun, which moves it aside and generates it again"
+            ) from None
+    return samples
 
 
 def seconds_per_assembly(root: Path, chunks: list[Chunk]) -> dict[int, float]:
-    """Mean generation seconds per assembly by size, from the timing sidecars that exist."""
+    """Mean generation seconds per assembly by size, from the manifests of the chunks that
+    exist."""
     by_size: dict[int, list[float]] = {}
     for chunk in chunks:
-        path = chunk.seconds_path(root)
-        if path.exists():
-            by_size.setdefault(chunk.size, []).extend(json.loads(path.read_text())["seconds"])
+        if chunk.manifest_path(root).exists():
+            seconds = _read_manifest(chunk, root)["seconds"]
+            by_size.setdefault(chunk.size, []).extend(seconds)
     return {size: float(np.mean(s)) for size, s in sorted(by_size.items()) if s}

@@ -6,11 +6,10 @@ their ROC points, and the first false steps of wrongly retrieved sequences.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Sequence
 from pathlib import Path
 
-from grace.data.atomic import write_text_atomic
+from grace.data.atomic import write_json_atomic
 from grace.evaluation.failures import failures_report
 from grace.evaluation.feasibility import feasibility_report
 
@@ -22,5 +21,5 @@ def write_analysis(per_fold: Sequence[dict[int, dict]], out_dir: Path) -> dict:
         "failures": failures_report(per_fold),
     }
     for name, report in reports.items():
-        write_text_atomic(Path(out_dir) / f"{name}.json", json.dumps(report, indent=2) + "\n")
+        write_json_atomic(Path(out_dir) / f"{name}.json", report)
     return reports

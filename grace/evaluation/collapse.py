@@ -38,14 +38,28 @@ def state_step_auc(
     return step_auc(*state_scores(scorer, samples, states))
 
 
+def _version(path: Path) -> int:
+    return int(path.parent.name.removeprefix("version_"))
+
+
+def training_history(log_dir: Path) -> list[dict[str, str]]:
+    """The rows of a fit's CSV logs under `log_dir`, as one uninterrupted fit would have logged
+    them: each `version_<n>` is one run of the fit, and a run that starts at epoch e (a resumed
+    fit at e, a fresh one at 0) replaces the rows of epoch e on of the versions before it."""
+    rows: list[dict[str, str]] = []
+    for path in sorted(Path(log_dir).glob("version_*/metrics.csv"), key=_version):
+        with path.open() as handle:
+            new = list(csv.DictReader(handle))
+        if new:
+            start = int(new[0]["epoch"])
+            rows = [r for r in rows if int(r["epoch"]) < start] + new
+    return rows
+
+
 def training_curve(log_dir: Path) -> dict | None:
-    """First and lowest training loss and best validation step AUC from the newest CSV log under
-    `log_dir` (None when there is none)."""
-    logs = sorted(Path(log_dir).glob("version_*/metrics.csv"), key=lambda p: p.stat().st_mtime)
-    if not logs:
-        return None
-    with logs[-1].open() as handle:
-        rows = list(csv.DictReader(handle))
+    """First and lowest training loss and best validation step AUC of the fit logged under
+    `log_dir` (None when there is no log)."""
+    rows = training_history(log_dir)
     train = [float(r["train_loss"]) for r in rows if r.get("train_loss")]
     val_auc = [float(r["val_step_auc"]) for r in rows if r.get("val_step_auc")]
     if not train:

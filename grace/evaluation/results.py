@@ -15,17 +15,37 @@ the JSON schema from the same classes, so the schema cannot drift from the code.
 from __future__ import annotations
 
 import json
+import math
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any
 
-from pydantic import AliasChoices, ConfigDict, Field, TypeAdapter, ValidationError
+from pydantic import (
+    AliasChoices,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    PlainSerializer,
+    TypeAdapter,
+    ValidationError,
+)
 
+from grace.data.atomic import strict_json
 from grace.errors import UserError
 
 OMITTED_IF_NONE = Field(default=None, exclude_if=lambda value: value is None)
 """A field that is absent from the file when undefined."""
+
+Number = Annotated[
+    float,
+    BeforeValidator(lambda value: math.nan if value is None else value),
+    PlainSerializer(
+        lambda value: value if math.isfinite(value) else None, return_type=float | None
+    ),
+]
+"""A float that may be undefined (NaN: e.g. a step AUC without a positive label): null in the
+file, which strict JSON parsers read (they reject NaN), NaN again when read."""
 
 CONFIG = ConfigDict(use_attribute_docstrings=True)
 """Field docstrings become the schema's descriptions."""
@@ -165,8 +185,8 @@ class SizeHealth:
     """GRACE's on-path test step AUC of one size against the best floor's."""
 
     __pydantic_config__ = CONFIG
-    step_auc: float
-    floor: float
+    step_auc: Number
+    floor: Number
 
 
 @dataclass
@@ -175,10 +195,10 @@ class TrainingCurve:
 
     __pydantic_config__ = CONFIG
     epochs: int
-    train_loss_first: float
-    train_loss_min: float
+    train_loss_first: Number
+    train_loss_min: Number
     val_step_auc_best: float | None
-    val_floor: float
+    val_floor: Number
     """The constant scorer's step AUC on the validation states."""
 
 
@@ -249,9 +269,9 @@ def plain(value: Any, adapter: TypeAdapter | None = None) -> Any:
 
 
 def to_json(value: Any, adapter: TypeAdapter | None = None) -> str:
-    """`value` (records, or plain data holding records) as indented JSON. Python's own float
-    text: a NaN stays NaN, as the files always held it."""
-    return json.dumps(plain(value, adapter), indent=2) + "\n"
+    """`value` (records, or plain data holding records) as indented strict JSON: a non-finite
+    number is null (grace.data.atomic.strict_json)."""
+    return strict_json(plain(value, adapter)) + "\n"
 
 
 def read_results(path: str | Path) -> ExperimentResults:

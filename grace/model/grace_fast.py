@@ -222,7 +222,7 @@ def first_state_block(
     gat = net.surface_gat(net.cfg.first_state_block)
     t, s = owner_flag.shape
     # Flat index into logits (A, S, S, 4): one gather, no (T, S, S, 4) copy.
-    pair = torch.arange(s * s).view(1, s, s) * 4
+    pair = torch.arange(s * s, device=owner_flag.device).view(1, s, s) * 4
     choice = (2 * owner_flag.unsqueeze(2) + owner_flag.unsqueeze(1)).long()
     index = state_assembly.view(t, 1, 1) * (s * s * 4) + pair + choice
     padding = (~rows.surface_mask).to(owner_flag.dtype).unsqueeze(1) * _MASKED
@@ -285,7 +285,7 @@ def pair_relations(net: GraceNet, dense: DenseAssemblies, static: torch.Tensor) 
     relations = torch.bmm(own, by_dst.transpose(1, 2).reshape(a, s, n * p)).view(a, n, n, p)
     if net.cfg.pair_geometry:
         relations = relations + net.pair_geom(dense.pair_geometry)
-    pairs = 1 - torch.eye(n, dtype=z.dtype)
+    pairs = 1 - torch.eye(n, dtype=z.dtype, device=z.device)
     if a > 1:  # no pairs with padding parts
         mask = dense.part_mask.to(z.dtype)
         pairs = mask.unsqueeze(2) * mask.unsqueeze(1) * pairs

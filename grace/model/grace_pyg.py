@@ -264,11 +264,11 @@ class GraceNet(nn.Module):
             src, dst = torch.cat([src, pair_src]), torch.cat([dst, pair_dst])
             z = torch.cat([z, self.pair_geom(data[PAIR_EDGE].edge_attr)])
         placed = data["part"].x[src, :1]
-        sums = torch.zeros(x_part.shape[0], 2 * z.shape[1], dtype=z.dtype)
+        sums = z.new_zeros(x_part.shape[0], 2 * z.shape[1])
         sums.index_add_(0, dst, torch.cat([placed * z, (1 - placed) * z], dim=1))
         x_part = torch.tanh(self.fuse(torch.cat([x_part, sums], dim=1)))
         for gate, fuse in zip(self.round_gates, self.round_fuses, strict=True):
-            message = torch.zeros(x_part.shape[0], z.shape[1], dtype=z.dtype)
+            message = z.new_zeros(x_part.shape[0], z.shape[1])
             message.index_add_(0, dst, z * gate(x_part)[src])
             x_part = torch.tanh(fuse(torch.cat([x_part, message], dim=1)))
         return x_part

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 import torch
+from lightning.fabric.utilities.apply_func import move_data_to_device
 from torch_geometric.data import Batch
 
 from grace.domain.assembly import Assembly
@@ -26,12 +27,16 @@ from grace.model.grace_pyg import GraceNet
 
 
 class PreparedAssembly:
-    """One assembly's encoded tensors and, once needed, the work all its states share."""
+    """One assembly's encoded tensors on the network's `device` and, once needed, the work all
+    its states share."""
 
-    def __init__(self, assembly: Assembly, tensors: AssemblyTensors) -> None:
+    def __init__(
+        self, assembly: Assembly, tensors: AssemblyTensors, device: torch.device | str = "cpu"
+    ) -> None:
         self.assembly = assembly
         self.tensors = tensors
-        self.dense = DenseAssemblies.stack([tensors])
+        self.device = torch.device(device)
+        self.dense = move_data_to_device(DenseAssemblies.stack([tensors]), self.device)
         self._shared: SharedWork | None = None
 
     def shared(self, net: GraceNet) -> SharedWork:
@@ -41,8 +46,8 @@ class PreparedAssembly:
 
     def part_features(self, net: GraceNet, states: np.ndarray) -> torch.Tensor:
         """Part features before the head (len(states), n_parts, hidden), on the fast path."""
-        flags = state_flags(states, self.assembly.n_parts)
-        index = torch.zeros(len(flags), dtype=torch.long)
+        flags = state_flags(states, self.assembly.n_parts).to(self.device)
+        index = torch.zeros(len(flags), dtype=torch.long, device=self.device)
         return state_features(net, self.dense, index, flags, self.shared(net))
 
 
@@ -79,7 +84,7 @@ class PygImpl:
         self, net: GraceNet, prepared: PreparedAssembly, states: np.ndarray
     ) -> torch.Tensor:
         batch = Batch.from_data_list([state_graph(prepared.tensors, int(s)) for s in states])
-        flat = net(batch)
+        flat = net(batch.to(prepared.device))
         return flat.view(len(states), prepared.assembly.n_parts, *flat.shape[1:])
 
 

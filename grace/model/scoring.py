@@ -55,7 +55,8 @@ class Scorer:
         if hit is not None and hit.assembly is assembly:
             self._cache.move_to_end(id(assembly))
             return hit
-        prepared = PreparedAssembly(assembly, evaluation_tensors(self.module, assembly))
+        tensors = evaluation_tensors(self.module, assembly)
+        prepared = PreparedAssembly(assembly, tensors, self.module.device)
         self._cache[id(assembly)] = prepared
         if len(self._cache) > self.cache_size:
             self._cache.popitem(last=False)
@@ -71,7 +72,7 @@ class Scorer:
         states = np.asarray(states, dtype=np.int64).reshape(-1)
         net = self.module.net
         logits = self.impl.assembly_logits(net, self._prepared(assembly), states)
-        return net.scores(logits).numpy().astype(np.float64)
+        return net.scores(logits).cpu().numpy().astype(np.float64)
 
 
 def make_scorer(module: GraceModule, impl: NetImpl | None = None) -> Scorer:
@@ -82,4 +83,4 @@ def make_scorer(module: GraceModule, impl: NetImpl | None = None) -> Scorer:
 def part_embeddings(module: GraceModule, assembly: Assembly, state: int = 0) -> np.ndarray:
     """Part node features (n_parts, hidden) after the part block, for mean-pooled classifiers."""
     feats = Scorer(module, FastImpl(), 1).part_features(assembly, np.array([state]))
-    return feats[0].numpy().astype(np.float64)
+    return feats[0].cpu().numpy().astype(np.float64)

@@ -24,7 +24,6 @@ to `profile.json` (grace/cli/epoch_profile.py).
 
 from __future__ import annotations
 
-import json
 import logging
 from dataclasses import dataclass
 from pathlib import Path
@@ -36,7 +35,7 @@ from omegaconf import MISSING, DictConfig
 
 from grace.cli.epoch_profile import profile_epochs
 from grace.cli.runner import TaskSettings
-from grace.data.atomic import write_text_atomic
+from grace.data.atomic import strict_json, write_json_atomic
 from grace.evaluation.baselines import BASELINES
 from grace.evaluation.bench import evaluate_ms_per_assembly
 from grace.graphs.datamodule import StateDataset
@@ -123,6 +122,6 @@ def run(cfg: DictConfig) -> float:
         "batch_size": batch_size,
         "assemblies": {str(train_size): len(train), str(infer_size): len(infer)},
     }
-    write_text_atomic(out_dir / "bench.json", json.dumps(result, indent=2) + "\n")
-    print(json.dumps(result, indent=2))
+    write_json_atomic(out_dir / "bench.json", result)
+    print(strict_json(result))
     return result["speedup_train"]

@@ -9,7 +9,6 @@ markdown table to simulators.md (the simulator table of docs/world.md, with `sca
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -20,7 +19,7 @@ from omegaconf import DictConfig
 
 from grace import CONF_DIR
 from grace.cli.runner import TaskSettings, task_overrides
-from grace.data.atomic import write_text_atomic
+from grace.data.atomic import write_json_atomic, write_text_atomic
 from grace.data.stats import SIMULATORS, simulator_comparison
 from grace.domain.sample import LabelledAssembly
 from grace.evaluation.tables import markdown_table
@@ -48,7 +47,7 @@ def run(cfg: DictConfig) -> None:
     labelled = {name: labelled_by(name, overrides) for name in SIMULATORS}
     comparison = simulator_comparison(labelled)
     out = Path(cfg.paths.output_dir)
-    write_text_atomic(out / "simulators.json", json.dumps(comparison, indent=2) + "\n")
+    write_json_atomic(out / "simulators.json", comparison)
     table = comparison_table(comparison)
     write_text_atomic(out / "simulators.md", table + "\n")
     print(table)

@@ -11,7 +11,6 @@ best-sequence scheme over the test sizes.
 
 from __future__ import annotations
 
-import json
 import logging
 import math
 import time
@@ -27,7 +26,7 @@ from pydantic import TypeAdapter
 from grace.cli.fit import kept_module
 from grace.cli.folds import protocol_folds, run_folds, start_fold
 from grace.cli.progress import FoldReporter
-from grace.data.atomic import write_text_atomic
+from grace.data.atomic import write_json_atomic, write_text_atomic
 from grace.domain.sample import LabelledAssembly
 from grace.evaluation.baselines import constant_scorer
 from grace.evaluation.collapse import fold_health, state_step_auc
@@ -142,7 +141,7 @@ def run(cfg: DictConfig) -> float:
     report = feasibility_report([metrics for metrics, _ in results])
     report["health"] = [h for _, health in results for h in health]
     out_dir.mkdir(parents=True, exist_ok=True)
-    write_text_atomic(out_dir / "feasibility.json", json.dumps(report, indent=2) + "\n")
+    write_json_atomic(out_dir / "feasibility.json", report)
     feasibility_roc(report, out_dir / "feasibility_roc.png")
     sizes = list(report["per_size"])
     schemes = TypeAdapter(dict[str, dict[str, SchemeSummary]]).validate_python(report["per_size"])

@@ -8,7 +8,6 @@ in the raw format (docs/raw-format.md) as `<folder>/A<size>/<name>/`.
 
 from __future__ import annotations
 
-import json
 import logging
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -18,7 +17,7 @@ from hydra.utils import instantiate
 from omegaconf import MISSING, DictConfig
 
 from grace.cli.runner import TaskSettings
-from grace.data.atomic import write_bytes_atomic, write_text_atomic
+from grace.data.atomic import write_bytes_atomic, write_json_atomic, write_text_atomic
 from grace.data.raw_format import export_raw
 from grace.data.stats import dataset_stats
 from grace.data.store import GeneratedSource, read_chunks, seconds_per_assembly
@@ -75,7 +74,7 @@ def run(cfg: DictConfig) -> None:
     out = Path(cfg.paths.output_dir)
     seconds = seconds_per_assembly(generation.path, generation.chunks)
     stats = dataset_stats(samples, seconds, str(generation.path))
-    write_text_atomic(out / STATS_FILE, json.dumps(stats, indent=2) + "\n")
+    write_json_atomic(out / STATS_FILE, stats)
     write_text_atomic(out / STATS_TABLES, dataset_tables(stats) + "\n")
     examples = pick_examples(samples, int(cfg.task.topview))
     if examples:

@@ -15,7 +15,6 @@ another config stops with one line naming both files.
 
 from __future__ import annotations
 
-import json
 import logging
 import time
 from dataclasses import dataclass
@@ -27,7 +26,7 @@ from omegaconf import MISSING, DictConfig
 
 from grace.cli.plan_search import plan_verified
 from grace.cli.runner import TaskSettings
-from grace.data.atomic import write_text_atomic
+from grace.data.atomic import write_json_atomic
 from grace.data.raw_format import read_assembly
 from grace.errors import UserError
 from grace.model.checkpoints import find_checkpoint, load_model
@@ -123,7 +122,7 @@ def run(cfg: DictConfig) -> float | None:
     sources["seconds"] = seconds  # scoring, top-k, simulator checks and poses (model loaded)
     sources["load_seconds"] = load_seconds  # checkpoint, config, assembly, simulator
     result = plan_json(record, {**sources, "k": planner.k, "threshold": planner.threshold})
-    write_text_atomic(out_dir / "plan.json", json.dumps(result, indent=2) + "\n")
+    write_json_atomic(out_dir / "plan.json", result)
     write_recording([record], out_dir / "plan.rrd", out_dir.name)
     feas = "n/a" if record.feasibility is None else f"{record.feasibility:.4f}"
     print(f"{assembly.name}: {assembly.n_parts} parts, feasibility score {feas}")

@@ -7,7 +7,6 @@ the run's output folder and returns the held-out step AUC over all sizes.
 
 from __future__ import annotations
 
-import json
 import logging
 import time
 from dataclasses import dataclass
@@ -19,7 +18,7 @@ from hydra.utils import instantiate
 from omegaconf import MISSING, DictConfig
 
 from grace.cli.runner import TaskSettings
-from grace.data.atomic import write_text_atomic
+from grace.data.atomic import write_json_atomic
 from grace.evaluation.metrics import step_auc
 from grace.evaluation.protocols import split_assemblies
 from grace.evaluation.step_states import state_scores
@@ -70,5 +69,5 @@ def run(cfg: DictConfig) -> float:
         "checkpoint": str(checkpoint) if checkpoint.exists() else None,
         "seconds": time.perf_counter() - start,
     }
-    write_text_atomic(out_dir / "metrics.json", json.dumps(metrics, indent=2) + "\n")
+    write_json_atomic(out_dir / "metrics.json", metrics)
     return overall

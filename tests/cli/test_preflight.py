@@ -2,6 +2,7 @@
 nothing written, and no torch or Lightning loaded first (the checks run in about a second;
 grace/cli/preflight.py). One row per kind of bad input."""
 
+import os
 import re
 import subprocess
 import sys
@@ -19,13 +20,15 @@ TINY = "dataset.sizes={3: 4, 4: 4}"  # no shell: no quotes
 HEAVY = ("torch", "lightning", "torch_geometric")
 
 
-def grace(cwd: Path, *overrides: str) -> tuple[int, list[str], set[str], float]:
+def grace(
+    cwd: Path, *overrides: str, env: dict[str, str] | None = None
+) -> tuple[int, list[str], set[str], float]:
     """Exit code, our stderr lines, the top-level modules imported, and seconds."""
     start = time.perf_counter()
     done = subprocess.run(
         [sys.executable, "-X", "importtime", "-m", "grace", *overrides],
         cwd=cwd,
-        env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"},
+        env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin", **(env or {})},
         capture_output=True,
         text=True,
         timeout=120,
@@ -120,6 +123,82 @@ def test_bad_input_is_one_line_exit_2_and_nothing_written(tmp_path, raw, case):
     assert re.search(expected.replace("{raw}", re.escape(str(raw))), lines[0]), lines[0]
     assert files(tmp_path) == before  # no run folder, no log, no cache
     assert not modules & set(HEAVY), f"{case}: heavy imports before the error ({seconds:.1f} s)"
+
+
+VALUES = {
+    "negative seed": (("seed=-1",), r"seed=-1 is outside \[0, ∞\); fix: seed=0"),
+    "no threads": (("threads=0",), r"threads=0 is outside \[1, ∞\); fix: threads=1"),
+    "k of 0": (("task=plan", "planner.k=0"), r"planner.k=0 is outside \[1, ∞\); fix: planner.k=1"),
+    "λ above 1": (("task.threshold=1.5",), r"task.threshold=1.5 is outside \[0, 1\]; fix: "),
+    "λ below 0": (
+        ("task=plan", "planner=topk", "planner.threshold=-0.1"),
+        r"planner.threshold=-0.1 is outside ",
+    ),
+    "no epochs": (("trainer.max_epochs=0",), r"trainer.max_epochs=0 is outside \[1, ∞\); fix: "),
+    "dead-end target": (
+        ("datamodule.dead_end_target=2.0",),
+        r"datamodule.dead_end_target=2.0 is outside \[0, 0.5\); fix: ",
+    ),
+    "size beyond the cell's slots": (
+        ("dataset.sizes={40: 2}",),
+        r"dataset.sizes: sizes \[40\] exceed simulator.cell.max_parts=20 .*; fix: sizes from 1",
+    ),
+    "count of 0": (
+        ("dataset.sizes={3: 0}",),
+        r"dataset.sizes has invalid entries \{3: 0\}; fix: sizes ≥ 1 and counts ≥ 1",
+    ),
+    "GRACE_DATA_DIR a file": (
+        ("GRACE_DATA_DIR={file}",),
+        r"paths.data_dir={file} is a file, not a folder; fix: set paths.data_dir \(or "
+        r"GRACE_DATA_DIR\) to a folder",
+    ),
+    "run folder under a file": (
+        ("paths.output_dir={file}/run",),
+        r"paths.output_dir={file}/run lies under the file {file}; fix: ",
+    ),
+    "read-only data folder": (
+        ("paths.data_dir={ro}/data",),
+        r"paths.data_dir={ro}/data: the folder {ro} is not writable .*; fix: ",
+    ),
+    "read-only run folder": (
+        ("paths.output_dir={ro}/run",),
+        r"paths.output_dir={ro}/run: the folder {ro} is not writable .*; fix: ",
+    ),
+}
+"""Values out of range and unusable folders: refused by the preflight (grace/cli/values.py)
+before anything is generated, trained or written."""
+
+
+@pytest.fixture
+def read_only(tmp_path) -> Path:
+    """A folder nobody may write to: a chmod 555 one, or for root (whom permissions do not stop)
+    /sys, where no file can be created."""
+    if os.geteuid() == 0:
+        return Path("/sys")
+    folder = tmp_path / "ro"
+    folder.mkdir()
+    folder.chmod(0o555)
+    return folder
+
+
+@pytest.mark.parametrize("case", VALUES, ids=list(VALUES))
+def test_a_bad_value_is_refused_before_any_work(tmp_path, read_only, case):
+    arguments, expected = VALUES[case]
+    (tmp_path / "file").write_text("not a folder\n")
+    before = files(tmp_path)
+    places = {"{file}": str(tmp_path / "file"), "{ro}": str(read_only)}
+    for place, value in places.items():
+        arguments = [a.replace(place, value) for a in arguments]
+        expected = expected.replace(place, re.escape(value))
+    env = dict(a.split("=", 1) for a in arguments if a.startswith("GRACE_DATA_DIR="))
+    overrides = [a for a in arguments if not a.startswith("GRACE_DATA_DIR=")]
+    if not env and not any(a.startswith("paths.data_dir=") for a in overrides):
+        overrides.append(f"paths.data_dir={tmp_path / 'd'}")
+    code, lines, _, _ = grace(tmp_path, *overrides, env=env)
+    assert code == 2, lines
+    assert len(lines) == 1 and lines[0].startswith("grace: error: "), lines
+    assert re.search(expected, lines[0]), lines[0]
+    assert files(tmp_path) == before  # no run folder, no log, no cache
 
 
 def test_an_option_the_protocol_ignores_is_named_at_once(tmp_path):

@@ -205,7 +205,8 @@ FLAT = "1;0;0;0&0;1;0;0&0;0;1;0&0;0;0;1"
 R45 = "0.7071067811865476;-0.7071067811865476;0;0&0.7071067811865476;0.7071067811865476;0;0"
 DELETE = object()
 TOO_MANY = "begin Pieces\n" + "".join(
-    f"p{k} item_profile_200 1;0;0;{300 * k}&0;1;0;0&0;0;1;0&0;0;0;1\n" for k in range(64)
+    f"p{k} item_profile_200 1;0;0;{60 * (k % 8)}&0;1;0;{250 * (k // 8)}&0;0;1;0&0;0;0;1\n"
+    for k in range(64)
 )
 
 # (file, edit, line the message names (None: the file as a whole), problem, fix). An edit is

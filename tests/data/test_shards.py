@@ -3,10 +3,11 @@ import struct
 import time
 
 import numpy as np
+import pytest
 from hydra.utils import instantiate
 
 from grace.data.records import dumps
-from grace.data.shards import read_shard, write_shard
+from grace.data.shards import ShardError, ShardInfo, encode_shard, read_shard, write_shard
 
 
 def _samples(fake_simulator):
@@ -34,5 +35,36 @@ def test_shard_round_trip(tmp_path, fake_simulator):
     samples = _samples(fake_simulator)
     for sample in samples:
         sample.info.pop("seconds")  # volatile: kept out of the records
-    write_shard(tmp_path / "s.jsonl.gz", samples)
-    assert read_shard(tmp_path / "s.jsonl.gz") == samples
+    info = write_shard(tmp_path / "s.jsonl.gz", samples)
+    assert info.records == 3
+    assert read_shard(tmp_path / "s.jsonl.gz", info) == samples
+
+
+def _corrupt(path, how, samples):
+    data = path.read_bytes()
+    if how == "empty":
+        path.write_bytes(b"")
+    elif how == "half":
+        path.write_bytes(data[: len(data) // 2])
+    elif how == "flipped":
+        path.write_bytes(data[:40] + bytes(b ^ 0xFF for b in data[40:48]) + data[48:])
+    elif how == "fewer records":  # a valid gzip of valid records, one short
+        path.write_bytes(encode_shard(samples[:-1]))
+
+
+@pytest.mark.parametrize("how", ["empty", "half", "flipped", "fewer records"])
+def test_a_damaged_shard_is_an_error_naming_it(tmp_path, fake_simulator, how):
+    samples = _samples(fake_simulator)
+    path = tmp_path / "s.jsonl.gz"
+    info = write_shard(path, samples)
+    _corrupt(path, how, samples)
+    with pytest.raises(ShardError, match=rf"^{path}: shard corrupted"):
+        read_shard(path, info)
+
+
+def test_a_shard_short_of_its_count_is_an_error_even_with_its_checksum(tmp_path, fake_simulator):
+    samples = _samples(fake_simulator)
+    path = tmp_path / "s.jsonl.gz"
+    info = write_shard(path, samples[:2])
+    with pytest.raises(ShardError, match="holds 2 of its 3 records"):
+        read_shard(path, ShardInfo(3, info.sha256))

@@ -1,12 +1,20 @@
 import json
+import logging
+import multiprocessing as mp
+import socket
+import subprocess
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
 from hydra.utils import instantiate
 from omegaconf import open_dict
 
+from grace.data import claims
 from grace.data.records import dumps, loads
-from grace.data.shards import SHARD_SUFFIX
+from grace.data.shards import SHARD_SUFFIX, encode_shard
 from grace.data.store import plan, read_chunks, seconds_per_assembly
 from grace.errors import UserError
 
@@ -133,7 +141,7 @@ def test_worker_processes_give_identical_bytes(fake_cfg, tmp_path):
     by_size = {
         size: [
             t
-            for p in sorted((two.path / f"A{size}").glob("*.seconds.json"))
+            for p in sorted((two.path / f"A{size}").glob("*.json"))
             for t in json.loads(p.read_text())["seconds"]
         ]
         for size in (3, 4, 6)
@@ -168,3 +176,112 @@ def test_a_bad_simulator_config_fails_once_in_the_parent(fake_cfg, tmp_path):
     with pytest.raises(Exception, match="width"):
         generate(cfg)
     assert not list(tmp_path.rglob("*.gz"))
+
+
+def _damage(chunk, root, how):
+    shard, manifest = chunk.path(root), chunk.manifest_path(root)
+    data = shard.read_bytes()
+    if how == "empty shard":
+        shard.write_bytes(b"")
+    elif how == "half a shard":
+        shard.write_bytes(data[: len(data) // 2])
+    elif how == "flipped bytes":
+        shard.write_bytes(data[:30] + bytes(b ^ 0x5A for b in data[30:34]) + data[34:])
+    elif how == "valid gzip, fewer records":
+        shard.write_bytes(encode_shard(read_chunks(root, [chunk])[:1]))
+    elif how == "truncated manifest":
+        manifest.write_bytes(manifest.read_bytes()[:25])
+    elif how == "no manifest":  # killed between the shard and its manifest
+        manifest.unlink()
+
+
+@pytest.mark.parametrize(
+    "how",
+    [
+        "empty shard",
+        "half a shard",
+        "flipped bytes",
+        "valid gzip, fewer records",
+        "truncated manifest",
+        "no manifest",
+    ],
+)
+def test_a_damaged_chunk_is_reported_set_aside_and_generated_again(fake_cfg, how, caplog):
+    cfg = fake_cfg()
+    generation = generate(cfg)
+    before = _data_bytes(generation.path)
+    chunk = generation.chunks[3]  # A4, assemblies 0..1
+    _damage(chunk, generation.path, how)
+    with caplog.at_level(logging.WARNING, logger="grace.data.store"):
+        samples = load_generated(cfg)
+    assert [s.size for s in samples] == [3] * 5 + [4] * 4 + [6] * 3
+    assert _data_bytes(generation.path) == {
+        **before,
+        **{k: v for k, v in _data_bytes(generation.path).items() if k.startswith("corrupt")},
+    }
+    warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+    if how == "no manifest":  # nothing was damaged: the chunk was never finished
+        assert warnings == []
+    else:
+        assert len(warnings) == 1 and "\n" not in warnings[0]
+        assert warnings[0].startswith(f"{generation.path}/A4/000000-000002.")
+        assert "generating it again" in warnings[0]
+        assert list((generation.path / "corrupt" / "A4").iterdir())
+
+
+def test_a_damaged_shard_found_at_read_is_one_line_with_the_fix(fake_cfg):
+    cfg = fake_cfg()
+    generation = generate(cfg)
+    _damage(generation.chunks[0], generation.path, "half a shard")
+    with pytest.raises(UserError, match=r"000000-000002\.jsonl\.gz: shard corrupted .*fix: rerun"):
+        read_chunks(generation.path, generation.chunks)
+
+
+def _generate_at(cfg, barrier, counts):
+    barrier.wait()
+    counts.put(generate(cfg).generated)
+
+
+def test_two_processes_generating_one_data_set_share_the_work(fake_cfg, tmp_path):
+    """Started together on 40 assemblies (20 chunks) of a slowed-down simulator: every chunk is
+    generated once, by one of them, each does a fair share, and the bytes are the usual ones."""
+    sizes = "{3: 20, 4: 20}"
+    cfg = fake_cfg(f"paths.data_dir={tmp_path / 'shared'}", sizes=sizes)
+    with open_dict(cfg):
+        cfg.simulator.delay = 0.02
+    ctx = mp.get_context("fork")
+    barrier, counts = ctx.Barrier(2), ctx.Queue()
+    runs = [ctx.Process(target=_generate_at, args=(cfg, barrier, counts)) for _ in range(2)]
+    for run in runs:
+        run.start()
+    for run in runs:
+        run.join(timeout=120)
+    generated = sorted(counts.get(timeout=1) for _ in runs)
+    assert sum(generated) == 40 and generated[0] >= 10, generated
+    alone = fake_cfg(f"paths.data_dir={tmp_path / 'alone'}", sizes=sizes)
+    with open_dict(alone):
+        alone.simulator.delay = 0.02
+    generate(alone)
+    assert _data_bytes(dataset_dir(cfg)) == _data_bytes(dataset_dir(alone))
+
+
+def test_a_claim_of_a_dead_process_is_taken_over_and_a_live_one_respected(fake_cfg):
+    cfg = fake_cfg()
+    root = dataset_dir(cfg)
+    first, second = plan({3: 5, 4: 4, 6: 3}, 2)[:2]
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], text=True,
+                          capture_output=True, check=True)  # fmt: skip
+    first.claim_path(root).parent.mkdir(parents=True)
+    first.claim_path(root).write_text(
+        json.dumps({"host": socket.gethostname(), "pid": int(dead.stdout)})
+    )
+    assert generate(cfg).complete
+    assert not list(root.rglob("*.claim*"))
+    second.manifest_path(root).unlink()
+    second.claim_path(root).write_text(json.dumps({"host": socket.gethostname(), "pid": 1}))
+    assert not claims.claim(second.claim_path(root))  # pid 1 lives: the chunk is its
+    waiting = ThreadPoolExecutor(1).submit(generate, cfg)
+    time.sleep(1.0)
+    assert not waiting.done()  # waits for the live owner's chunk
+    second.claim_path(root).unlink()  # the owner gave up without finishing
+    assert waiting.result(timeout=30).generated == second.count

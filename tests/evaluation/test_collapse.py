@@ -30,11 +30,11 @@ def _metrics(grace_auc):
     }
 
 
-def _log(tmp_path, train_losses, val_aucs):
-    folder = tmp_path / "logs" / "version_0"
+def _log(tmp_path, train_losses, val_aucs, version=0, start=0):
+    folder = tmp_path / "logs" / f"version_{version}"
     folder.mkdir(parents=True)
     rows = ["epoch,step,train_loss,train_step_auc,val_loss,val_step_auc"]
-    for epoch, (loss, auc) in enumerate(zip(train_losses, val_aucs, strict=True)):
+    for epoch, (loss, auc) in enumerate(zip(train_losses, val_aucs, strict=True), start):
         rows.append(f"{epoch},{epoch},,,{loss + 0.01},{auc}")  # Lightning writes val and
         rows.append(f"{epoch},{epoch},{loss},0.5,,")  # train metrics on separate rows
     (folder / "metrics.csv").write_text("\n".join(rows) + "\n")
@@ -87,6 +87,21 @@ def test_collapse_at_test_time_in_validation_and_in_training_loss(tmp_path):
         "best validation step AUC 0.330 ≤ constant scorer 0.812",
         "training loss never fell below its first epoch's",
     ]
+
+
+def test_a_resumed_fit_s_logs_read_as_one_uninterrupted_history(tmp_path):
+    """Killed during epoch 3 (its rows logged, its checkpoint not written), resumed at epoch 3 in
+    version_1; then rerun from scratch in version_10 (sorted by number, not as text)."""
+    _log(tmp_path, [0.9, 0.5, 0.6, 0.7], [0.4, 0.5, 0.6, 0.7])
+    log_dir = _log(tmp_path, [0.3, 0.2], [0.9, 0.8], version=1, start=3)
+    assert training_curve(log_dir) == {
+        "epochs": 5,
+        "train_loss_first": 0.9,
+        "train_loss_min": 0.2,
+        "val_step_auc_best": 0.9,
+    }
+    _log(tmp_path, [0.8], [0.1], version=10)
+    assert training_curve(log_dir)["epochs"] == 1
 
 
 def test_missing_training_log_is_said(tmp_path):

@@ -69,7 +69,12 @@ def fit(cfg_factory, root):
 def plan(cfg_factory, ckpt, assembly, *overrides):
     cfg = cfg_factory("task=plan", f"ckpt={ckpt}", f"assembly={assembly}", *overrides)
     run(cfg)
-    return json.loads((Path(cfg.paths.output_dir) / "plan.json").read_text()), cfg
+    text = (Path(cfg.paths.output_dir) / "plan.json").read_text()
+    return json.loads(text, parse_constant=_not_json), cfg
+
+
+def _not_json(constant: str):
+    raise ValueError(f"plan.json holds {constant}: strict JSON parsers reject it")
 
 
 def test_plan_with_a_model_fitted_to_a_hand_made_assembly(cfg_factory, tmp_path):
@@ -144,6 +149,12 @@ def test_plan_with_a_model_fitted_to_a_hand_made_assembly(cfg_factory, tmp_path)
     bad.mkdir()
     (bad / "assembly.spec").write_text("begin Pieces\nx item_profile_400 1\nend Pieces\n")
     with pytest.raises(UserError, match="unknown part type"):
+        plan(cfg_factory, train, bad)
+    (bad / "assembly.spec").write_text(
+        "begin Pieces\nx item_profile_200 1;0;0;1.7e308&0;1;0;0&0;0;1;0&0;0;0;1\n"
+        "y item_profile_200 1;0;0;-1.7e308&0;1;0;0&0;0;1;0&0;0;0;1\nend Pieces\n"
+    )
+    with pytest.raises(UserError, match=r"assembly\.spec:2: .*outside the cell's workspace"):
         plan(cfg_factory, train, bad)
     other = tmp_path / "other"  # the checkpoint beside the config of a different network
     shutil.copytree(train / "checkpoints", other / "checkpoints")

@@ -1,0 +1,97 @@
+"""Checks of single values in a composed config: numbers within their ranges, folders usable.
+
+Run by the preflight (grace/cli/preflight.py) before the run folder exists, so a seed of -1, a
+λ of 1.5 or a data folder that is a file stops the command in one line naming the key and the
+fix, with nothing written; the same checks run again inside the run (grace/cli/runner.py).
+Ranges and why: docs/operations.md, "Bad input".
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+from omegaconf import DictConfig, OmegaConf
+
+from grace.errors import UserError
+
+
+@dataclass(frozen=True)
+class Bound:
+    """`key` must lie in [low, high] (or [low, high) when `open_high`); absent keys pass."""
+
+    key: str
+    low: float
+    high: float = math.inf
+    open_high: bool = False
+    fix: str = ""
+
+    def interval(self) -> str:
+        high = "∞" if math.isinf(self.high) else f"{self.high:g}"
+        return f"[{self.low:g}, {high}{')' if self.open_high or math.isinf(self.high) else ']'}"
+
+
+BOUNDS = (
+    Bound("seed", 0, fix="seed=0 (any integer ≥ 0; numpy's generators take no negative seed)"),
+    Bound("threads", 1, fix="threads=1 or more (at most the machine's cores)"),
+    Bound("planner.k", 1, fix="planner.k=1 or more (how many orders task=plan returns)"),
+    Bound("task.threshold", 0, 1, fix="a λ in [0, 1] (step scores are probabilities)"),
+    Bound("planner.threshold", 0, 1, fix="a λ in [0, 1] (step scores are probabilities)"),
+    Bound("trainer.max_epochs", 1, fix="trainer.max_epochs=1 or more (0 trains nothing)"),
+    Bound(
+        "datamodule.dead_end_target",
+        0,
+        0.5,
+        open_high=True,
+        fix="a target in [0, 0.5) (0 keeps the labels; ≥ 0.5 would count a dead end as valid)",
+    ),
+)
+"""The numbers the preflight checks (grace/graphs/datamodule.py checks dead_end_target too, for
+callers outside the command line)."""
+
+
+def check_bounds(cfg: DictConfig) -> None:
+    """A UserError naming the first key of BOUNDS whose value lies outside its range."""
+    for bound in BOUNDS:
+        value = OmegaConf.select(cfg, bound.key, throw_on_resolution_failure=False)
+        if not isinstance(value, int | float) or isinstance(value, bool):
+            continue
+        above = value >= bound.high if bound.open_high else value > bound.high
+        if value < bound.low or above or math.isnan(value):
+            raise UserError(f"{bound.key}={value} is outside {bound.interval()}; fix: {bound.fix}")
+
+
+FOLDERS = (("paths.data_dir", " (or GRACE_DATA_DIR)"), ("paths.output_dir", ""))
+"""The folders a run writes: config key, and what else sets it."""
+
+
+def check_folder(path: Path, key: str, also: str = "") -> None:
+    """A UserError if `path` (the folder of config key `key`, also set by `also`) cannot be
+    created or written: it is a file, lies under a file, or its nearest existing folder refuses
+    a new file. Writes nothing: the probe is an unnamed temporary file."""
+    path = Path(path).absolute()
+    fix = f"fix: set {key}{also} to"
+    if path.exists() and not path.is_dir():
+        raise UserError(f"{key}={path} is a file, not a folder; {fix} a folder")
+    existing = next(p for p in (path, *path.parents) if p.exists())
+    if not existing.is_dir():
+        raise UserError(f"{key}={path} lies under the file {existing}; {fix} a folder elsewhere")
+    try:
+        with tempfile.TemporaryFile(dir=existing):
+            pass
+    except OSError as error:
+        raise UserError(
+            f"{key}={path}: the folder {existing} is not writable ({error.strerror}); "
+            f"{fix} a writable folder, or make {existing} writable"
+        ) from None
+
+
+def check_paths(cfg: DictConfig) -> None:
+    """The data folder and the run folder (when it is known before Hydra makes it: set with
+    paths.output_dir) can be made and written."""
+    for key, also in FOLDERS:
+        value = OmegaConf.select(cfg, key, throw_on_resolution_failure=False)
+        if value is not None:
+            check_folder(Path(str(value)), key, also)

@@ -1,0 +1,68 @@
+"""SIGTERM to the main process or to its whole process group (what `timeout`, `scancel` and
+`kill -- -<pgid>` send) ends a run with one line and exit 130, never a traceback of the fold
+workers or of the progress display (grace/cli/signals.py), whatever phase it lands in."""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+PUZZLES = "+dataset={_target_: experiment_fakes.PuzzleSource, seed: 0}"  # no simulator
+
+
+def start(out: Path) -> subprocess.Popen:
+    """An experiment on precedence puzzles (tests/tasks/experiment_fakes.py), two folds in two
+    worker processes, trained until stopped; its own process group."""
+    command = [
+        *(sys.executable, "-m", "grace", "~dataset", PUZZLES, "protocol.folds=2"),
+        *("task.fold_jobs=2", "threads=2", "model.net.hidden=8", "trainer.max_epochs=1000"),
+        *("callbacks.early_stopping.patience=1000", f"paths.output_dir={out}"),
+    ]
+    env = {**os.environ, "PYTHONPATH": f"{ROOT}:{ROOT / 'tests' / 'tasks'}"}
+    return subprocess.Popen(
+        command, env=env, text=True, start_new_session=True, stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )  # fmt: skip
+
+
+def stop(run: subprocess.Popen, group: bool) -> tuple[int, str]:
+    if group:
+        os.killpg(run.pid, signal.SIGTERM)
+    else:
+        run.send_signal(signal.SIGTERM)
+    out, err = run.communicate(timeout=180)
+    return run.returncode, out + err
+
+
+@pytest.mark.parametrize("delay", [0.5, 2.0, 4.0])
+def test_sigterm_to_the_group_early_is_a_clean_stop(tmp_path, delay):
+    """Early: in the imports (Python's own SIGTERM: 143, silent), the preflight, Hydra's
+    composition or the task's start; which one depends on the machine's speed."""
+    run = start(tmp_path / "run")
+    time.sleep(delay)
+    code, output = stop(run, group=True)
+    assert code in (130, -signal.SIGTERM), output
+    assert "Traceback" not in output and "Error" not in output, output
+    assert len([line for line in output.splitlines() if "interrupted" in line]) <= 1, output
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("group", [True, False], ids=["group", "main process"])
+def test_sigterm_in_training_is_one_line_and_exit_130(tmp_path, group):
+    out = tmp_path / "run"
+    run = start(out)
+    deadline = time.monotonic() + 300
+    while not list(out.glob("fold_*/checkpoints/last.ckpt")) and time.monotonic() < deadline:
+        assert run.poll() is None, run.communicate()
+        time.sleep(0.2)
+    code, output = stop(run, group)
+    lines = [line for line in output.splitlines() if not line.startswith("[")]  # log records
+    assert code == 130, output
+    assert lines == [
+        f"grace: interrupted; to resume: the same command with paths.output_dir={out}"
+    ], output
