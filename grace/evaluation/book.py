@@ -39,6 +39,8 @@ FLOORS = ("constant", "never")
 TITLES = {
     "intra": "Intra-sized (paper Table 2, left)",
     "many_to_one": "Many-to-one (paper Table 2, right)",
+    "one_to_many": "One-to-many (paper Table 3)",
+    "upward": "Upward: trained on A3–A7, tested on A8–A12 (paper Table 3 extended)",
 }
 
 VARIANT_COLUMNS = (
@@ -172,11 +174,11 @@ def results_book(paths: Sequence[Path], report_command: str) -> str:
         by_name = {n: by_name[n] for n in [*names, *(n for n in by_name if n not in names)]}
         if protocol in TABLE3_PROTOCOLS:
             table = table3_markdown({_policy_label(n): v for n, v in by_name.items()})
-            parts += _block("One-to-many (paper Table 3)", run_lines, report_command, table)
+            parts += _block(TITLES[protocol], run_lines, report_command, table)
         else:
             table = protocol_table(by_name, protocol)
             parts += _block(TITLES.get(protocol, protocol), run_lines, report_command, table)
         if len(names) > 1:
-            title = f"Variants: {TITLES.get(protocol, 'One-to-many (paper Table 3)')}"
+            title = f"Variants: {TITLES.get(protocol, protocol)}"
             parts += _block(title, run_lines, report_command, variant_table(by_name, names))
     return "\n\n".join(parts) + "\n"
