@@ -21,7 +21,7 @@ from pathlib import Path
 from omegaconf import OmegaConf
 
 from grace.evaluation.gather import (
-    ONE_TO_MANY,
+    TABLE3_PROTOCOLS,
     Gathered,
     gather_runs,
     sizes_of,
@@ -39,6 +39,8 @@ FLOORS = ("constant", "never")
 TITLES = {
     "intra": "Intra-sized (paper Table 2, left)",
     "many_to_one": "Many-to-one (paper Table 2, right)",
+    "one_to_many": "One-to-many (paper Table 3)",
+    "upward": "Upward: trained on A3–A7, tested on A8–A12 (paper Table 3 extended)",
 }
 
 VARIANT_COLUMNS = (
@@ -162,23 +164,23 @@ def results_book(paths: Sequence[Path], report_command: str) -> str:
         "(docs/metrics.md). Each table follows the commands that made its runs and this book.",
     ]
     for protocol in sorted(
-        {r.protocol for r in runs}, key=lambda p: (p == ONE_TO_MANY, p != "intra", p)
+        {r.protocol for r in runs}, key=lambda p: (p in TABLE3_PROTOCOLS, p != "intra", p)
     ):
         chosen = [i for i, r in enumerate(runs) if r.protocol == protocol]
         gathered: Gathered = gather_runs(
             [runs[i] for i in chosen], [Path(paths[i]) for i in chosen]
         )
         run_lines = commands([made[i] for i in chosen])
-        by_name = gathered.table3 if protocol == ONE_TO_MANY else gathered.table2
+        by_name = gathered.table3 if protocol in TABLE3_PROTOCOLS else gathered.table2
         names = [n for n in by_name if n.split(" (")[0] not in baselines]
         by_name = {n: by_name[n] for n in [*names, *(n for n in by_name if n not in names)]}
-        if protocol == ONE_TO_MANY:
+        if protocol in TABLE3_PROTOCOLS:
             table = table3_markdown({_policy_label(n): v for n, v in by_name.items()})
-            parts += _block("One-to-many (paper Table 3)", run_lines, report_command, table)
+            parts += _block(TITLES[protocol], run_lines, report_command, table)
         else:
             table = protocol_table(by_name, protocol)
             parts += _block(TITLES.get(protocol, protocol), run_lines, report_command, table)
         if len(names) > 1:
-            title = f"Variants: {TITLES.get(protocol, 'One-to-many (paper Table 3)')}"
+            title = f"Variants: {TITLES.get(protocol, protocol)}"
             parts += _block(title, run_lines, report_command, variant_table(by_name, names))
     return "\n\n".join(parts) + "\n"

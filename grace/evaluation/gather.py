@@ -38,8 +38,9 @@ SIZE_KEYS = ("protocol", "test_size", "train_size")
 REPLICATE_KEYS = ("seed", "dataset.seed")
 """Overrides that repeat a run rather than vary it: such runs are pooled."""
 
-ONE_TO_MANY = "one_to_many"
-"""The protocol of Table 3; the others fill Table 2."""
+TABLE3_PROTOCOLS = ("one_to_many", "upward")
+"""The protocols of Table 3 (a row per training set: one size, or A3–A7 for `upward`, whose
+test sizes A8–A12 extend its columns); the others fill Table 2."""
 
 
 def find_results(roots: Iterable[str | Path]) -> list[Path]:
@@ -142,7 +143,7 @@ def gather_runs(runs: list[ExperimentResults], paths: list[Path]) -> Gathered:
     seeds: dict[str, set] = {}
     for results, label in zip(runs, variants(runs), strict=True):
         policies = {label: results.per_size} | {n: b.per_size for n, b in results.baselines.items()}
-        if results.protocol == ONE_TO_MANY:
+        if results.protocol in TABLE3_PROTOCOLS:
             table, key = "table3", "+".join(str(s) for s in results.train_sizes)
         else:
             table, key = "table2", results.protocol
@@ -213,6 +214,23 @@ def table3_markdown(table3: dict[str, dict[str, dict[str, SizeSummary]]]) -> str
     return markdown_table(head, rows)
 
 
+def table3_metrics_markdown(table3: dict[str, dict[str, dict[str, SizeSummary]]]) -> str:
+    """Table 3 with every metric of the intra table: a row per metric and (variant or floor,
+    training set), strict figures first, each policy's row beside the floors' on the same test
+    assemblies; a column per test size."""
+    sizes = sizes_of(block for v in table3.values() for block in v.values())
+    trains = sorted(
+        {t for v in table3.values() for t in v}, key=lambda t: [int(x) for x in t.split("+")]
+    )
+    blocks = {
+        f"{name} A{train}": table3[name][train]
+        for train in trains
+        for name in table3
+        if train in table3[name]
+    }
+    return metrics_table(blocks, [(f"A{s}", s) for s in sizes], first="Policy", by_metric=True)
+
+
 def gather_markdown(tables: Gathered) -> str:
     """gather.md: Table 2 and Table 3 of the gathered runs."""
     parts = [
@@ -223,4 +241,5 @@ def gather_markdown(tables: Gathered) -> str:
         parts += ["## Table 2: intra-sized and many-to-one", table2_markdown(tables.table2)]
     if tables.table3:
         parts += ["## Table 3: one-to-many", table3_markdown(tables.table3)]
+        parts += ["## Table 3, every metric", table3_metrics_markdown(tables.table3)]
     return "\n\n".join(parts) + "\n"

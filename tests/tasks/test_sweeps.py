@@ -66,3 +66,24 @@ def test_seed_sweep_keeps_the_data_and_gathers_into_one_pooled_block(tmp_path):
     table2 = json.loads((gathered / "gather.json").read_text())["table2"]
     pooled = table2["GRACE (3 seeds)"]["intra"]
     assert all(entry["step_auc"]["runs"] == 3 for entry in pooled.values())
+
+
+@pytest.mark.slow
+def test_upward_sweep_extends_table3(tmp_path):
+    sweep = tmp_path / "sweep"
+    common = [f"paths.data_dir={tmp_path / 'data'}"]
+    grace(
+        *("--config-dir", "sweeps", "--config-name", "upward"),
+        "dataset.sizes={3: 4, 4: 4, 5: 4, 6: 4, 7: 4, 8: 2, 10: 2, 12: 2}",
+        *("protocol.folds=2", "trainer.max_epochs=1", "task.recording.per_size=0"),
+        f"hydra.sweep.dir={sweep}",
+        *common,
+        timeout=600,
+    )
+    runs = [json.loads(p.read_text()) for p in sorted(sweep.glob("*/results.json"))]
+    assert {r["protocol"] for r in runs} == {"upward"} and len(runs) == 2
+    assert all(r["test_sizes"] == [8, 10, 12] for r in runs)
+    gathered = tmp_path / "gather"
+    gather(sweep, gathered, common)
+    table = (gathered / "gather.md").read_text()
+    assert "| model=grace | A3+4+5+6+7 |" in table and "## Table 3, every metric" in table
