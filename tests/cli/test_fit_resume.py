@@ -24,6 +24,7 @@ SETTINGS = (
     "model.net.hidden=8",
     "model.net.surface_blocks=1",
     "model.optimizer.lr=0.05",
+    "model/scheduler=plateau",  # a scheduler with a state that its step changes
     "model.scheduler.patience=1",
     "callbacks.early_stopping.patience=3",
 )

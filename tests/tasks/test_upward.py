@@ -6,7 +6,8 @@ import json
 import numpy as np
 from omegaconf import OmegaConf, open_dict
 
-from grace.cli.folds import protocol_folds
+from grace.cli.checks import protocol_split
+from grace.evaluation.protocols import make_folds
 from grace.tasks.experiment import run
 from grace.tasks.gather import run as gather
 
@@ -28,7 +29,9 @@ def _upward_cfg(cfg_factory, fake_simulator, *overrides):
 def test_upward_folds_keep_test_sizes_out_of_training_and_validation(cfg_factory):
     cfg = cfg_factory("protocol=upward", "scale=upward")
     sizes = [s for s, n in cfg.dataset.sizes.items() for _ in range(n)]
-    train_sizes, test_sizes, folds = protocol_folds(cfg, sizes)
+    proto = cfg.protocol
+    train_sizes, test_sizes = protocol_split(proto, sizes)
+    folds = make_folds(sizes, train_sizes, test_sizes, proto.folds, proto.val_fraction, proto.seed)
     assert train_sizes == [3, 4, 5, 6, 7] and test_sizes == [8, 10, 12]
     sizes = np.array(sizes)
     tested = []
@@ -51,7 +54,7 @@ def test_upward_runs_end_to_end_on_tiny_sizes(cfg_factory, fake_simulator, tmp_p
         assert entry["assemblies"] == 4  # every generated assembly of a test size, once
         # Planned exactly: every one of the 2^N - 1 non-complete states scored once.
         assert entry["forward_passes"] == 4 * (2 ** int(size) - 1)
-        assert "confusion" in entry["feasibility"] and "step_auc_offpath" in entry
+        assert "confusion" in entry["feasibility"] and "placeable_auc_offpath" in entry
         for floor in ("constant", "never"):
             assert size in results["baselines"][floor]["per_size"]
     # FakeSimulator's A10 draws hold feasible assemblies: the sequence metrics are there too.
@@ -73,8 +76,10 @@ def test_gather_extends_table3_by_the_upward_columns(tmp_path, results_run, size
     assert "| step A3 | step A4 | step A6 | step A7 | step A8 | step A10 | step A12 |" in md
     row = next(line for line in md.splitlines() if line.startswith("| GRACE | A3+4+5+6+7 |"))
     assert row.count("0.60 ± 0.01") == 3 and row.count("0.70 ± 0.00 (9/90 empty)") == 3
-    assert row.count("–") == 4 * 3  # no figure of the one-to-many test sizes
+    # no figure of the four one-to-many test sizes (four columns each), nor of the strict
+    # sequence AUC that the upward entries lack
+    assert row.count("–") == 4 * 4 + 3
     # Every metric of the intra table, the floor's row beside GRACE's.
     lines = md[md.index("## Table 3, every metric") :].splitlines()
     at = lines.index(next(x for x in lines if x.startswith("| GRACE A3+4+5+6+7 | Complete")))
-    assert lines[at + 1].startswith("| constant A3+4+5+6+7 | Complete Sequence AUC | –")
+    assert lines[at + 1].startswith("| constant A3+4+5+6+7 | Complete Sequence AUC (paper: empty")
