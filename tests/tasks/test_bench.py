@@ -7,21 +7,21 @@ from omegaconf import open_dict
 from grace.tasks.bench import run
 
 
+def _bench_cfg(cfg_factory, fake_simulator, *overrides: str):
+    """A task=bench config on the simulator stand-in, one thread, small batches."""
+    cfg = cfg_factory("task=bench", "datamodule.batch_size=16", "threads=1", *overrides)
+    with open_dict(cfg):
+        cfg.simulator = fake_simulator
+    return cfg
+
+
 @pytest.mark.parametrize(("model", "params"), [("grace", 51_701), ("grace_geometric", 137_084)])
 def test_bench_writes_side_by_side_figures(cfg_factory, fake_simulator, model, params):
     """The paper's network and the default (two outputs: the benchmark trains with its loss)."""
-    cfg = cfg_factory(
-        "task=bench",
-        f"model={model}",
-        "task.assemblies=3",
-        "task.train_steps=2",
-        "task.infer_calls=3",
-        "task.prefix_passes=5",
-        "datamodule.batch_size=16",
-        "threads=1",
-    )
-    with open_dict(cfg):
-        cfg.simulator = fake_simulator
+    cfg = _bench_cfg(
+        cfg_factory, fake_simulator, f"model={model}", "task.assemblies=3",
+        "task.train_steps=2", "task.infer_calls=3", "task.prefix_passes=5",
+    )  # fmt: skip
     speedup = run(cfg)
     bench = json.loads(Path(cfg.paths.output_dir, "bench.json").read_text())
     assert bench["params"] == params
@@ -39,17 +39,10 @@ def test_bench_writes_side_by_side_figures(cfg_factory, fake_simulator, model, p
 
 
 def test_profile_times_the_first_folds_epochs(cfg_factory, fake_simulator, capsys):
-    cfg = cfg_factory(
-        "task=bench",
-        "task.profile=true",
-        "task.profile_epochs=1",
-        "dataset.sizes={3: 8, 4: 8}",
-        "datamodule.batch_size=16",
-        "threads=1",
-        "trainer.enable_progress_bar=false",
-    )
-    with open_dict(cfg):
-        cfg.simulator = fake_simulator
+    cfg = _bench_cfg(
+        cfg_factory, fake_simulator, "task.profile=true", "task.profile_epochs=1",
+        "dataset.sizes={3: 8, 4: 8}", "trainer.enable_progress_bar=false",
+    )  # fmt: skip
     epoch_cpu_s = run(cfg)
     profile = json.loads(Path(cfg.paths.output_dir, "profile.json").read_text())
     assert profile["epochs"] == 1 and profile["threads"] == 1
