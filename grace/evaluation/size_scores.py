@@ -17,6 +17,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from grace.domain.canonical import copy_groups
 from grace.domain.sample import LabelledAssembly
 from grace.evaluation.protocols import make_folds
 from grace.evaluation.step_states import label_matrix, offpath_states, onpath_states
@@ -31,9 +32,10 @@ QUANTILES = (0.05, 0.25, 0.5, 0.75, 0.95)
 def held_out(samples: Sequence[LabelledAssembly], folds: int, seed: int, fold: int) -> list[int]:
     """Indices of the assemblies in fold `fold`'s own part, of every size: no model of that fold
     trained or early-stopped on them, whatever its protocol's sizes (grace/evaluation/protocols.py
-    deals each size's assemblies to the folds before the sizes are chosen)."""
+    deals each size's assemblies to the folds before the sizes are chosen, every group of copies
+    whole, as the experiment's folds do)."""
     sizes = [s.size for s in samples]
-    return list(make_folds(sizes, sizes, sizes, folds, 0.0, seed)[fold].test)
+    return list(make_folds(sizes, sizes, sizes, folds, 0.0, seed, copy_groups(samples))[fold].test)
 
 
 def step_scores(

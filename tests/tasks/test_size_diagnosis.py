@@ -32,7 +32,7 @@ def _cfg(cfg_factory, fake_simulator, *overrides):
 def test_held_out_assemblies_never_train_the_fold(cfg_factory, fake_simulator):
     cfg = _cfg(cfg_factory, fake_simulator, "protocol=one_to_many", "train_size=4")
     data = instantiate(cfg.dataset).load()
-    _, _, folds = protocol_folds(cfg, [d.size for d in data])
+    _, _, folds = protocol_folds(cfg, data)
     for fold in folds:
         unseen = held_out(data, 2, 0, fold.index)
         assert not set(unseen) & set(fold.train + fold.val)
