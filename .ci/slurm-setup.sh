@@ -70,7 +70,11 @@ pgrep -x slurmd >/dev/null || /usr/sbin/slurmd
 for _ in $(seq 60); do
   state="$(sinfo -h -n "$host" -o %T 2>/dev/null || true)"
   case "$state" in
-    idle*|mixed*|allocated*) echo "slurm-setup: node ${host} is ${state} (${cpus} CPUs)"; exit 0 ;;
+    idle*|mixed*|allocated*)
+      # Our test cluster: jobs left by an interrupted earlier test (restored from the
+      # controller's state) would hold the node, and the test's jobs would wait for ever.
+      scancel --full --quiet --user "$(id -un)" 2>/dev/null || true
+      echo "slurm-setup: node ${host} is ${state} (${cpus} CPUs)"; exit 0 ;;
     down*|drain*) scontrol update NodeName="$host" State=RESUME 2>/dev/null || true ;;
   esac
   sleep 1
