@@ -174,13 +174,13 @@ def run(cfg: DictConfig) -> float:
             overrides=task_overrides(),
         ),
     )
-    write_results(results, out_dir)
     draw_analysis(write_analysis(per_fold["GRACE"], out_dir), out_dir)
     pr_curves({name: mean_curves(f) for name, f in per_fold.items()}, out_dir / "pr_curves.png")
     p_at_k_bars(results.policies(), out_dir / "p_at_k.png")
     records = [record for r in fold_results for record in r.records]
     if records:
         write_recording(records, out_dir / "sequences.rrd", out_dir.name)
+    write_results(results, out_dir)  # last: a run folder with results.json is a finished run
     seq = [entry.seq_auc.mean for entry in per_size.values() if entry.seq_auc is not None]
     objective = float(np.mean(seq)) if seq else math.nan
     if results.collapsed_folds:
