@@ -48,6 +48,26 @@ def _in_truth(truth: GroundTruth | None, order: tuple[int, ...]) -> bool | None:
     return True
 
 
+def order_entry(
+    rank: int, ranked: Any, check: Any, names: list[str], ground_truth: bool | None
+) -> dict[str, Any]:
+    """One order of plan.json (either planner): its parts, the network's probability and step
+    scores, the simulator's verdict per step, and whether the raw folder's ground truth holds it
+    (null: none given)."""
+    return {
+        "rank": rank,
+        "sequence": list(ranked.sequence),
+        "parts": [names[p] for p in ranked.sequence],
+        "probability": ranked.probability,
+        "step_scores": list(ranked.step_scores),
+        "simulator": {
+            "feasible": check.feasible,
+            "verdicts": [v.feasible for v in check.verdicts],
+        },
+        "ground_truth": ground_truth,
+    }
+
+
 def verified_json(
     record: SearchRecord, planner: VerifiedSearch, truth: GroundTruth | None, sources: dict
 ) -> dict[str, Any]:
@@ -56,18 +76,7 @@ def verified_json(
     assembly = record.order.assembly
     names = [p.name for p in assembly.parts]
     orders = [
-        {
-            "rank": rank,
-            "sequence": list(ranked.sequence),
-            "parts": [names[p] for p in ranked.sequence],
-            "probability": ranked.probability,
-            "step_scores": list(ranked.step_scores),
-            "simulator": {
-                "feasible": check.feasible,
-                "verdicts": [v.feasible for v in check.verdicts],
-            },
-            "ground_truth": _in_truth(truth, ranked.sequence),
-        }
+        order_entry(rank, ranked, check, names, _in_truth(truth, ranked.sequence))
         for rank, (ranked, check) in enumerate(
             zip(record.order.ranked, record.order.checks, strict=True), 1
         )

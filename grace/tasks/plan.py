@@ -24,7 +24,7 @@ from typing import Any
 from hydra.utils import instantiate
 from omegaconf import MISSING, DictConfig
 
-from grace.cli.plan_search import plan_verified
+from grace.cli.plan_search import order_entry, plan_verified
 from grace.cli.runner import TaskSettings
 from grace.data.atomic import write_json_atomic
 from grace.data.raw_format import read_assembly
@@ -56,29 +56,16 @@ def plan_json(record: SequenceRecord, sources: dict[str, Any]) -> dict[str, Any]
     sequences = []
     for rank, (seq, check) in enumerate(zip(record.ranked, record.checks, strict=True), 1):
         failure = check.failure
-        sequences.append(
-            {
-                "rank": rank,
-                "sequence": list(seq.sequence),
-                "parts": [names[p] for p in seq.sequence],
-                "probability": seq.probability,
-                "step_scores": list(seq.step_scores),
-                "simulator": {
-                    "feasible": check.feasible,
-                    "verdicts": [v.feasible for v in check.verdicts],
-                    "failing_step": check.failing_step,
-                    "rule": failure.rule if failure else None,
-                    "blocking_parts": sorted(
-                        {b.part for b in blockers(failure) if b.part is not None}
-                    )
-                    if failure
-                    else [],
-                    "reason": describe(failure, names) if failure else None,
-                },
-                # a ground-truth order of the assembly's raw folder (null: none given)
-                "ground_truth": rank not in outside if known else None,
-            }
+        entry = order_entry(rank, seq, check, names, rank not in outside if known else None)
+        entry["simulator"].update(
+            failing_step=check.failing_step,
+            rule=failure.rule if failure else None,
+            blocking_parts=sorted({b.part for b in blockers(failure) if b.part is not None})
+            if failure
+            else [],
+            reason=describe(failure, names) if failure else None,
         )
+        sequences.append(entry)
     return {
         **sources,
         "name": record.assembly.name,
