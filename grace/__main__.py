@@ -14,7 +14,12 @@ from omegaconf import DictConfig
 
 from grace import CONF_DIR
 from grace.cli.preflight import debugging, preflight, run_dir_overrides, user_errors
-from grace.cli.signals import EXIT_INTERRUPTED, sigterm_as_interrupt, stopped
+from grace.cli.signals import (
+    EXIT_INTERRUPTED,
+    held_while_loading,
+    sigterm_as_interrupt,
+    stopped,
+)
 
 
 # An absolute path: found whether this module runs as __main__ or from the console script.
@@ -22,7 +27,8 @@ from grace.cli.signals import EXIT_INTERRUPTED, sigterm_as_interrupt, stopped
 def run(cfg: DictConfig) -> float | None:
     """One Hydra job: the task of `cfg` (a user error: one line, exit 2)."""
     try:
-        from grace.cli.runner import run_task  # torch and Lightning: after the checks
+        with held_while_loading():
+            from grace.cli.runner import run_task  # torch and Lightning: after the checks
 
         with user_errors(debugging(sys.argv[1:]) or bool(cfg.debug)):
             return run_task(cfg)
@@ -47,13 +53,17 @@ def main() -> None:
             preflight(sys.argv[1:])
             sys.argv += run_dir_overrides(sys.argv[1:])
     except KeyboardInterrupt:
-        print("grace: interrupted before the run started; nothing was written", file=sys.stderr)
-        sys.exit(EXIT_INTERRUPTED)
+        _stopped_early("grace: interrupted before the run started; nothing was written")
     try:
         run()
     except KeyboardInterrupt:  # while Hydra composes the config or sets up the run folder
-        print("grace: interrupted before the task started", file=sys.stderr)
-        sys.exit(EXIT_INTERRUPTED)
+        _stopped_early("grace: interrupted before the task started")
+
+
+def _stopped_early(message: str) -> None:
+    """Exit 130 before any worker or file exists."""
+    print(message, file=sys.stderr)
+    sys.exit(EXIT_INTERRUPTED)
 
 
 if __name__ == "__main__":

@@ -31,6 +31,7 @@ from hydra.core.config_store import ConfigStore
 from omegaconf import MISSING, OmegaConf
 
 from grace import CONF_DIR
+from grace.cli.signals import held_while_loading
 from grace.data.loading import RawSource
 from grace.data.store import GeneratedSource
 from grace.evaluation.protocols import ProtocolSettings
@@ -285,7 +286,8 @@ def register_schemas(light: bool = False) -> None:
         open_paths = {p for p in referenced_schemas() if not _stored(store, p)}
         groups = {path.removeprefix("schema/"): {} for path in open_paths} | groups
     else:
-        groups |= heavy_schemas()
+        with held_while_loading():
+            groups |= heavy_schemas()
     for path, node in groups.items():
         group, _, name = f"schema/{path}".rpartition("/")
         store.store(group=group, name=name, node=node)

@@ -15,6 +15,8 @@ is read as the stop it is (:func:`stopped`), so the run ends with one line eithe
 from __future__ import annotations
 
 import signal
+from collections.abc import Iterator
+from contextlib import contextmanager
 from types import FrameType
 
 EXIT_INTERRUPTED = 130
@@ -33,6 +35,23 @@ def sigterm_as_interrupt() -> None:
     either is remembered (:func:`stopped`)."""
     signal.signal(signal.SIGTERM, _interrupt)
     signal.signal(signal.SIGINT, _interrupt)
+
+
+@contextmanager
+def held_while_loading() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM while heavy libraries import, then take them.
+
+    A KeyboardInterrupt raised inside a C extension's initialisation surfaces as an ImportError
+    ("initialization failed") or, inside Python code the extension runs (mujoco's does), stays
+    flagged in CPython, which then ends the process by SIGINT whatever exit code was given. A
+    held signal is delivered when the block ends, between two imports, as a clean stop.
+    """
+    stops = {signal.SIGINT, signal.SIGTERM}
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, stops)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, before)
 
 
 def stopped() -> bool:

@@ -11,6 +11,8 @@ from pathlib import Path
 
 import pytest
 
+from grace.cli.signals import held_while_loading, sigterm_as_interrupt
+
 ROOT = Path(__file__).resolve().parents[2]
 PUZZLES = "+dataset={_target_: experiment_fakes.PuzzleSource, seed: 0}"  # no simulator
 
@@ -66,3 +68,19 @@ def test_sigterm_in_training_is_one_line_and_exit_130(tmp_path, group):
     assert lines == [
         f"grace: interrupted; to resume: the same command with paths.output_dir={out}"
     ], output
+
+
+def test_a_stop_while_libraries_load_arrives_after_them():
+    """A SIGTERM inside the block is held (an import interrupted midway can fail as an
+    ImportError or leave CPython's interrupt flag set) and raised once the block ends."""
+    before = signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGINT)
+    sigterm_as_interrupt()
+    finished = False
+    try:
+        with pytest.raises(KeyboardInterrupt), held_while_loading():
+            signal.raise_signal(signal.SIGTERM)
+            finished = True
+    finally:
+        signal.signal(signal.SIGTERM, before[0])
+        signal.signal(signal.SIGINT, before[1])
+    assert finished
