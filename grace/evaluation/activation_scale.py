@@ -7,8 +7,9 @@ every block as a module and has the same weights and outputs as the fast path, t
 state:
 - `surface_norm_<i>` / `part_norm`: the standard deviation over a state's surfaces / parts of the
   InstanceNorm's input (mean over channels), the statistic the norm divides by;
-- `placed_sum` / `unplaced_sum`: the relational readout's sums of pair features over the other
-  placed / unplaced parts (the fuse layer's input), root mean square per part;
+- `placed_sum` / `unplaced_sum`: the relational readout's pools of pair features over the other
+  placed / unplaced parts (the fuse layer's input: sums, or means or maxima by `model.net.pool`),
+  root mean square per part;
 - `part_pe_term` / `surface_pe_term`: what the positional encodings add to the first layers'
   pre-activations (the PE columns of the part block's and of the first surface block's input
   weights times the encodings), root mean square per node;
@@ -80,7 +81,7 @@ class ActivationProbe:
     def _fuse(self, _: nn.Module, args: tuple) -> None:
         h, p = self.net.cfg.hidden, self.net.cfg.pair_readout
         self._keep("placed_sum", _rms(args[0][:, h : h + p]))
-        self._keep("unplaced_sum", _rms(args[0][:, h + p :]))
+        self._keep("unplaced_sum", _rms(args[0][:, h + p : h + 2 * p]))
 
     def __enter__(self) -> ActivationProbe:
         net, add = self.net, self._handles.append

@@ -38,6 +38,9 @@ SIZE_KEYS = ("protocol", "test_size", "train_size")
 REPLICATE_KEYS = ("seed", "dataset.seed")
 """Overrides that repeat a run rather than vary it: such runs are pooled."""
 
+PLACE_KEYS = ("paths", "hydra")
+"""Overrides that say where a run writes (paths.output_dir, hydra.run.dir), not a variant."""
+
 TABLE3_PROTOCOLS = ("one_to_many", "upward")
 """The protocols of Table 3 (a row per training set: one size, or A3–A7 for `upward`, whose
 test sizes A8–A12 extend its columns); the others fill Table 2."""
@@ -69,7 +72,8 @@ def _variant_overrides(results: ExperimentResults) -> dict[str, str]:
     for override in [] if results.run is None else results.run.overrides:
         key, _, value_ = override.partition("=")
         key = key.lstrip("+~")
-        if key.split(".")[0] not in SIZE_KEYS and key not in REPLICATE_KEYS:
+        top = key.split(".")[0]
+        if top not in SIZE_KEYS and top not in PLACE_KEYS and key not in REPLICATE_KEYS:
             out[key] = value_
     return out
 

@@ -4,8 +4,10 @@
 from __future__ import annotations
 
 from collections.abc import Callable, Hashable, Mapping, Sequence
+from typing import Any
 
 from grace.evaluation.results import CountedStat, SizeSummary, Stat
+from grace.evaluation.size_scores import QUANTILES
 
 Metric = Callable[[SizeSummary], Stat | None]
 """Where a metric sits in a size's entry (None: undefined)."""
@@ -142,3 +144,40 @@ def dataset_tables(stats: Mapping[str, object]) -> str:
         ]
         tables.append(markdown_table([title, *(f"A{size}" for size in sizes)], body))
     return "\n\n".join(tables)
+
+
+SCORE_GROUPS = (
+    ("onpath", "valid", "valid parts, on the true orders"),
+    ("onpath", "invalid", "invalid parts, on the true orders"),
+    ("offpath", "valid", "valid parts, off them"),
+    ("offpath", "invalid", "invalid parts, off them"),
+)
+"""The score groups of `task=size_diagnosis` (grace.evaluation.size_scores), as its rows."""
+
+MEDIAN = QUANTILES.index(0.5)
+
+
+def size_diagnosis_table(report: Mapping[str, Any]) -> str:
+    """What `task=size_diagnosis` measured (its size_diagnosis.json) as one markdown table: per
+    size, each score group's median / share at or above λ, then each activation term's mean;
+    the last column is the largest size's value over the largest trained size's."""
+    sizes = list(report["scores"])
+    base = str(max(report["train_sizes"]))
+    head = ["", *(f"A{s}" for s in sizes), f"A{sizes[-1]} ÷ A{base}"]
+    rows = []
+    for where, kind, label in SCORE_GROUPS:
+        groups = [report["scores"][s][where][kind] for s in sizes]
+        cells = [
+            "–"
+            if not g["count"]
+            else f"{g['quantiles'][MEDIAN]:.2f} / {g['at_or_above_threshold']:.2f}"
+            for g in groups
+        ]
+        rows.append([f"{label} (median / ≥ λ)", *cells, ""])
+    terms = sorted({t for s in sizes for t in report["activations"][s]})
+    for term in terms:
+        means = [report["activations"][s].get(term, {}).get("mean") for s in sizes]
+        top, ref = means[-1], report["activations"].get(base, {}).get(term, {}).get("mean")
+        ratio = f"{top / ref:.2f}" if top is not None and ref else "–"
+        rows.append([f"`{term}`", *(_share(m) for m in means), ratio])
+    return markdown_table(head, rows)

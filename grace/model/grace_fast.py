@@ -25,7 +25,7 @@ import torch
 import torch.nn.functional as F
 
 from grace.graphs.dense import DenseAssemblies
-from grace.model.grace_pyg import GraceNet
+from grace.model.grace_pyg import GraceNet, Pool
 
 _EPS = 1e-5  # torch_geometric InstanceNorm default
 _MASKED = -1e30
@@ -309,30 +309,67 @@ def shared_work(net: GraceNet, dense: DenseAssemblies) -> SharedWork:
 def pair_readout(
     net: GraceNet,
     shared: SharedWork,
+    dense: DenseAssemblies,
     state_assembly: torch.Tensor,
     flags: torch.Tensor,
     h: torch.Tensor,
 ) -> torch.Tensor:
-    """Fuse the sums of pair features over placed and over unplaced other parts into `h`, then
-    run the further readout rounds (grace_pyg.NetConfig).
+    """Fuse the pools of pair features over placed and over unplaced other parts into `h`, then
+    run the further readout rounds (grace_pyg.NetConfig, `pool`).
 
     Sums over source parts as a batched product and as multiply-then-sum over contiguous source
     slices: on the CPU both are several times faster than einsum, which loops over tiny matrices
     (one per state and channel) here. The states of a single assembly (planning) share its pair
     features by broadcasting, without a copy per state."""
     t, n = flags.shape
-    relations = shared.relations
-    rel = _by_state(relations, state_assembly)  # (T or 1, N_src, N_dst, P)
+    pool = net.cfg.pool
+    rel = _by_state(shared.relations, state_assembly)  # (T or 1, N_src, N_dst, P)
     if rel.shape[0] == 1:
         placed = (flags @ rel.view(n, -1)).view(t, n, -1)
     else:
         placed = torch.bmm(flags.unsqueeze(1), rel.view(t, n, -1)).view(t, n, -1)
     unplaced = _by_state(shared.relation_totals, state_assembly) - placed
-    h = torch.tanh(_linear(net.fuse, torch.cat([h, placed, unplaced], dim=-1)))
+    pooled = [placed, unplaced]
+    if pool != Pool.sum:
+        real = _by_state(dense.part_mask, state_assembly).to(flags.dtype)  # (T or 1, N)
+        others = (real.sum(dim=-1, keepdim=True) - real).clamp(min=1)  # (T or 1, N_dst)
+        placed_others = flags.sum(dim=-1, keepdim=True) - flags
+        pairs = _pairs(real)  # (T or 1, N_src, N_dst)
+        if pool == Pool.mean:
+            pooled = [
+                placed / placed_others.clamp(min=1).unsqueeze(-1),
+                unplaced / (others - placed_others).clamp(min=1).unsqueeze(-1),
+            ]
+        else:
+            on = flags.unsqueeze(-1) > 0.5
+            pooled = [_max(rel, pairs & on), _max(rel, pairs & ~on & (real.unsqueeze(-1) > 0.5))]
+        pooled.append((placed_others / others).unsqueeze(-1))
+    h = torch.tanh(_linear(net.fuse, torch.cat([h, *pooled], dim=-1)))
     for gate, fuse in zip(net.round_gates, net.round_fuses, strict=True):
-        message = (rel * _linear(gate, h).unsqueeze(2)).sum(dim=1)
+        values = rel * _linear(gate, h).unsqueeze(2)
+        if pool == Pool.max:
+            message = _max(values, pairs)
+        else:
+            message = values.sum(dim=1)
+            if pool == Pool.mean:
+                message = message / others.unsqueeze(-1)
         h = torch.tanh(_linear(fuse, torch.cat([h, message], dim=-1)))
     return h
+
+
+def _pairs(real: torch.Tensor) -> torch.Tensor:
+    """(T, N_src, N_dst) bool: the ordered pairs of two different real parts."""
+    n = real.shape[-1]
+    distinct = ~torch.eye(n, dtype=torch.bool, device=real.device)
+    on = real > 0.5
+    return on.unsqueeze(-1) & on.unsqueeze(-2) & distinct
+
+
+def _max(values: torch.Tensor, keep: torch.Tensor) -> torch.Tensor:
+    """Max of `values` (T, N_src, N_dst, P) over the sources where `keep` (T, N_src, N_dst);
+    0 for a destination with none."""
+    out = values.masked_fill(~keep.unsqueeze(-1), -torch.inf).amax(dim=1)
+    return out.masked_fill(out == -torch.inf, 0.0)
 
 
 def state_features(
@@ -357,7 +394,7 @@ def state_features(
         x = run_surface_blocks(net, rows, x, range(cfg.first_state_block + 1, cfg.surface_blocks))
         h = part_norm(net, part_block_states(net, rows, x, owner_flag), rows.part_mask)
     if shared.relations is not None:
-        h = pair_readout(net, shared, state_assembly, flags, h)
+        h = pair_readout(net, shared, dense, state_assembly, flags, h)
     return h
 
 

@@ -50,6 +50,17 @@ SCORE_RULES: dict[Score, Callable[[torch.Tensor], torch.Tensor]] = {
 """Each rule on the two outputs' log-sigmoids (..., 2) → scores (...)."""
 
 
+class Pool(StrEnum):
+    """How the pair readout pools pair features over a set of other parts (`model.net.pool`,
+    docs/size-generalisation.md): `sum` (the first readout), `mean` or `max`. A sum grows with
+    the number of parts, so a network trained on small assemblies reads values on a large one
+    that it never saw; a mean or a max keeps its value when the same pair features repeat."""
+
+    sum = "sum"
+    mean = "mean"
+    max = "max"
+
+
 @dataclass(frozen=True)
 class NetConfig:
     """Network shape; the defaults are the paper's (51,701 trainable parameters).
@@ -70,6 +81,10 @@ class NetConfig:
     sends every part's fused features, projected to the pair width, through the same pair
     features to the other parts (two hops: "is the neighbour that I would block still waiting,
     and can it still be placed?").
+
+    `pool` (:class:`Pool`) says how pair features are pooled over placed, over unplaced and (in
+    further rounds) over all other parts. With `mean` or `max` the fuse layer also reads the
+    share of the other parts that are placed, the one count a size-free pool loses.
 
     `pair_geometry` (not in the paper: 0 here, 64 in the default model `grace_geometric`) adds
     to each pair feature a small MLP (this hidden width) of the pair's relative geometry
@@ -94,11 +109,13 @@ class NetConfig:
     pair_readout: int = 0
     readout_rounds: int = 1
     pair_geometry: int = 0
+    pool: Pool = Pool.sum
     placeable_head: bool = False
     score: Score = Score.min
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "score", Score(self.score))  # a plain string becomes the enum
+        object.__setattr__(self, "pool", Pool(self.pool))
         if not 0 <= self.state_blocks <= self.surface_blocks:
             raise UserError(
                 f"model.net.state_blocks={self.state_blocks}: use 0 to model.net.surface_blocks="
@@ -129,6 +146,12 @@ class NetConfig:
     def static_width(self) -> int:
         """Width of the state-blind surface features that the pair readout reads."""
         return self.hidden if self.first_state_block > 0 else self.surface_in
+
+    @property
+    def fuse_in(self) -> int:
+        """Input width of the readout's fuse layer: part features, the placed and unplaced
+        pools, and with a size-free pool the placed share."""
+        return self.hidden + 2 * self.pair_readout + int(self.pool != Pool.sum)
 
     @property
     def part_in(self) -> int:
@@ -183,7 +206,7 @@ class GraceNet(nn.Module):
             self.pair_dst = nn.Linear(w, p)
             self.pair_src = nn.Linear(w, p, bias=False)
             self.pair_rel = nn.Linear(1, p, bias=False)
-            self.fuse = nn.Linear(h + 2 * p, h)
+            self.fuse = nn.Linear(cfg.fuse_in, h)
             rounds = range(cfg.readout_rounds - 1)
             self.round_gates = nn.ModuleList(nn.Linear(h, p) for _ in rounds)
             self.round_fuses = nn.ModuleList(nn.Linear(h + p, h) for _ in rounds)
@@ -257,21 +280,43 @@ class GraceNet(nn.Module):
         )
         z = z / (n_own[part_of[dst]] * n_own[part_of[src]]).unsqueeze(-1)
         # Every term as (source part, destination part, feature): the surface pairs', then the
-        # part pairs' geometry terms.
+        # part pairs' geometry terms; summed into one feature per ordered part pair.
         src, dst = part_of[src], part_of[dst]
         if self.cfg.pair_geometry:
             pair_src, pair_dst = data[PAIR_EDGE].edge_index
             src, dst = torch.cat([src, pair_src]), torch.cat([dst, pair_dst])
             z = torch.cat([z, self.pair_geom(data[PAIR_EDGE].edge_attr)])
-        placed = data["part"].x[src, :1]
-        sums = z.new_zeros(x_part.shape[0], 2 * z.shape[1])
-        sums.index_add_(0, dst, torch.cat([placed * z, (1 - placed) * z], dim=1))
-        x_part = torch.tanh(self.fuse(torch.cat([x_part, sums], dim=1)))
+        n = x_part.shape[0]
+        pairs, term_pair = torch.unique(src * n + dst, return_inverse=True)
+        z = z.new_zeros(pairs.shape[0], z.shape[1]).index_add_(0, term_pair, z)
+        src, dst = pairs // n, pairs % n
+        placed = data["part"].x[src, 0] > 0.5
+        pool = self.cfg.pool
+        pooled = [_pool(z, dst, placed, n, pool), _pool(z, dst, ~placed, n, pool)]
+        if pool != Pool.sum:
+            others = torch.bincount(dst, minlength=n).clamp(min=1)
+            pooled.append((torch.bincount(dst[placed], minlength=n) / others).unsqueeze(-1))
+        x_part = torch.tanh(self.fuse(torch.cat([x_part, *pooled], dim=1)))
+        every = torch.ones_like(placed)
         for gate, fuse in zip(self.round_gates, self.round_fuses, strict=True):
-            message = z.new_zeros(x_part.shape[0], z.shape[1])
-            message.index_add_(0, dst, z * gate(x_part)[src])
+            message = _pool(z * gate(x_part)[src], dst, every, n, pool)
             x_part = torch.tanh(fuse(torch.cat([x_part, message], dim=1)))
         return x_part
+
+
+def _pool(values: torch.Tensor, dst: torch.Tensor, keep: torch.Tensor, n: int, pool: Pool):
+    """`values` (pairs, P) of the pairs where `keep`, pooled per destination part: (n, P); 0
+    for a part with no such pair."""
+    if pool == Pool.max:
+        masked = values.masked_fill(~keep.unsqueeze(-1), -torch.inf)
+        index = dst.unsqueeze(-1).expand_as(values)
+        out = values.new_full((n, values.shape[1]), -torch.inf)
+        out = out.scatter_reduce(0, index, masked, "amax", include_self=True)
+        return out.masked_fill(out == -torch.inf, 0.0)
+    out = values.new_zeros(n, values.shape[1]).index_add_(0, dst, values * keep.unsqueeze(-1))
+    if pool == Pool.mean:
+        out = out / torch.bincount(dst[keep], minlength=n).clamp(min=1).unsqueeze(-1)
+    return out
 
 
 def _batch_vector(data: HeteroData | Batch, node_type: str) -> torch.Tensor:

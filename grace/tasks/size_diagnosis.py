@@ -9,7 +9,8 @@ size, and writes per size:
 - the distribution of step scores of valid and invalid parts, on and off the true orders;
 - the scale of the network's size-dependent terms, measured with forward hooks
   (grace/evaluation/activation_scale.py);
-into size_diagnosis.json and size_diagnosis.png in the run folder.
+into size_diagnosis.json, size_diagnosis.png and (as a table) size_diagnosis.md in the run
+folder.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from grace.domain.sample import LabelledAssembly
 from grace.errors import UserError
 from grace.evaluation.activation_scale import activation_scale
 from grace.evaluation.size_scores import held_out, step_scores, summarise
+from grace.evaluation.tables import size_diagnosis_table
 from grace.model.checkpoints import find_checkpoint, load_model
 from grace.model.scoring import make_scorer
 from grace.visualisation.size_diagnosis import size_diagnosis_figure
@@ -107,6 +109,7 @@ def run(cfg: DictConfig) -> None:
         "activations": activations,
     }
     write_text_atomic(out / "size_diagnosis.json", json.dumps(report, indent=2) + "\n")
+    write_text_atomic(out / "size_diagnosis.md", size_diagnosis_table(report) + "\n")
     size_diagnosis_figure(
         scores, activations, settings.threshold, trained, out / "size_diagnosis.png"
     )

@@ -15,8 +15,8 @@ def _run(*overrides):
 
 def test_variant_is_what_differs_between_runs():
     runs = [
-        _run("scale=paper", "protocol=intra", "model=grace"),
-        _run("scale=paper", "test_size=5", "model=pe_none"),
+        _run("scale=paper", "protocol=intra", "model=grace", "paths.output_dir=runs/a"),
+        _run("scale=paper", "test_size=5", "model=pe_none", "hydra.run.dir=runs/b"),
         _run("scale=paper"),
     ]
     assert variants(runs) == ["model=grace", "model=pe_none", "GRACE"]

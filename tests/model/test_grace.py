@@ -1,3 +1,5 @@
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 import torch
@@ -8,7 +10,7 @@ from grace.graphs.assembly_graph import encode_assembly, state_flags, state_grap
 from grace.graphs.dense import DenseAssemblies
 from grace.graphs.encoding import GraphEncoding
 from grace.graphs.pair_geometry import PAIR_GEOMETRY_FEATURES
-from grace.model.grace_fast import fast_logits
+from grace.model.grace_fast import SharedWork, fast_logits, pair_readout
 from grace.model.grace_pyg import GraceNet, NetConfig, Score, count_parameters
 
 
@@ -81,22 +83,26 @@ def _both_paths(samples, dtype, cfg=NetConfig()):  # noqa: B008
 
 
 @pytest.mark.parametrize(
-    ("state_blocks", "pair_readout", "rounds", "geometry", "two_heads"),
+    ("state_blocks", "pair_readout", "rounds", "geometry", "two_heads", "pool"),
     [
-        (0, 0, 1, 0, False),
-        (1, 0, 1, 0, False),
-        (3, 0, 1, 0, False),
-        (0, 8, 1, 0, False),
-        (1, 8, 1, 0, False),
-        (3, 8, 1, 0, False),
-        (0, 8, 3, 0, False),
-        (0, 8, 3, 6, False),
-        (1, 8, 2, 6, False),
-        (0, 8, 2, 6, True),
+        (0, 0, 1, 0, False, "sum"),
+        (1, 0, 1, 0, False, "sum"),
+        (3, 0, 1, 0, False, "sum"),
+        (0, 8, 1, 0, False, "sum"),
+        (1, 8, 1, 0, False, "sum"),
+        (3, 8, 1, 0, False, "sum"),
+        (0, 8, 3, 0, False, "sum"),
+        (0, 8, 3, 6, False, "sum"),
+        (1, 8, 2, 6, False, "sum"),
+        (0, 8, 2, 6, True, "sum"),
+        (0, 8, 3, 6, True, "mean"),
+        (1, 8, 2, 0, False, "mean"),
+        (0, 8, 3, 6, True, "max"),
+        (1, 8, 2, 0, False, "max"),
     ],
 )
 def test_fast_path_equals_pyg_path(
-    samples, state_blocks, pair_readout, rounds, geometry, two_heads
+    samples, state_blocks, pair_readout, rounds, geometry, two_heads, pool
 ):
     """Same weights → same logits and parameter gradients, on a batch of mixed sizes (float64)."""
     cfg = NetConfig(
@@ -105,6 +111,7 @@ def test_fast_path_equals_pyg_path(
         readout_rounds=rounds,
         pair_geometry=geometry,
         placeable_head=two_heads,
+        pool=pool,
     )
     ref, fast, ref_grads, fast_grads = _both_paths(samples, torch.float64, cfg)
     assert ref.shape == fast.shape
@@ -113,8 +120,10 @@ def test_fast_path_equals_pyg_path(
         torch.testing.assert_close(g_fast, g_ref, atol=1e-5, rtol=0)
 
 
-@pytest.mark.parametrize("state_blocks", [0, 1])
-def test_one_assembly_alone_equals_pyg_path(samples, state_blocks):
+@pytest.mark.parametrize(
+    ("state_blocks", "pool"), [(0, "sum"), (1, "sum"), (0, "mean"), (0, "max")]
+)
+def test_one_assembly_alone_equals_pyg_path(samples, state_blocks, pool):
     """A batch of one assembly (planning, or one large assembly's chunk in training) takes the
     unpadded route (plain instance norms, pair features broadcast over its states): same logits
     and gradients as the PyG path, for every sample, also the 3-part one."""
@@ -124,6 +133,7 @@ def test_one_assembly_alone_equals_pyg_path(samples, state_blocks):
         readout_rounds=3,
         pair_geometry=6,
         placeable_head=True,
+        pool=pool,
     )
     for sample in samples:
         ref, fast, ref_grads, fast_grads = _both_paths([sample], torch.float64, cfg)
@@ -151,3 +161,27 @@ def test_state_blocks_must_fit_the_surface_blocks():
 def test_readout_rounds_need_a_pair_readout():
     with pytest.raises(UserError, match=r"model\.net\.readout_rounds=2"):
         NetConfig(readout_rounds=2)
+
+
+def _readout_of_part_zero(pool: str, copies: int) -> torch.Tensor:
+    """Part 0's fused features when each of its three other parts (two placed) stands
+    `copies` times, every copy with the same pair features towards part 0."""
+    torch.manual_seed(0)
+    net = GraceNet(NetConfig(hidden=6, pair_readout=4, pool=pool)).double()
+    towards_zero = torch.randn(3, 4, dtype=torch.float64)
+    n = 1 + 3 * copies
+    relations = torch.zeros(1, n, n, 4, dtype=torch.float64)
+    relations[0, 1:, 0] = towards_zero.repeat(copies, 1)
+    flags = torch.tensor([[0.0] + [1.0, 1.0, 0.0] * copies], dtype=torch.float64)
+    shared = SharedWork(None, None, None, relations, relations.sum(dim=1))
+    dense = SimpleNamespace(part_mask=torch.ones(1, n, dtype=torch.bool))
+    h = torch.zeros(1, n, 6, dtype=torch.float64)
+    return pair_readout(net, shared, dense, torch.zeros(1, dtype=torch.long), flags, h)[0, 0]
+
+
+@pytest.mark.parametrize("pool", ["mean", "max"])
+def test_a_size_free_pool_keeps_its_value_when_the_same_pairs_repeat(pool):
+    """The property that makes `pool=mean|max` carry to larger assemblies: three times the same
+    neighbours (same pair features, same placed share) read as once; a sum does not."""
+    torch.testing.assert_close(_readout_of_part_zero(pool, 3), _readout_of_part_zero(pool, 1))
+    assert not torch.allclose(_readout_of_part_zero("sum", 3), _readout_of_part_zero("sum", 1))

@@ -84,6 +84,9 @@ def test_size_diagnosis_end_to_end(cfg_factory, fake_simulator, tmp_path):
         kinds = per_size["onpath"]
         assert kinds["valid"]["count"] + kinds["invalid"]["count"] > 0
     assert (out / "size_diagnosis.png").stat().st_size > 0
+    table = (out / "size_diagnosis.md").read_text().splitlines()
+    assert table[0] == "|  | A3 | A4 | A5 | A8 | A8 ÷ A4 |"
+    assert any(line.startswith("| `placed_sum` |") for line in table)
     wrong = _cfg(cfg_factory, fake_simulator, "task=size_diagnosis", f"ckpt={run_dir}",
                  "dataset.sizes={3: 5, 4: 6, 5: 6, 8: 4}")  # fmt: skip
     with pytest.raises(UserError, match="not the data set of the run"):

@@ -47,7 +47,7 @@ def test_task_train_writes_checkpoint_and_metrics(cfg_factory, fake_simulator, c
     out = capsys.readouterr().out
     assert "A3: held-out step AUC" in out and "A4: held-out step AUC" in out
     metrics = json.loads(Path(cfg.paths.output_dir, "metrics.json").read_text())
-    assert metrics["params"] == 137_084  # the default model: grace_geometric
+    assert metrics["params"] == 137_178  # the default model: grace_geometric
     assert set(metrics["step_auc"]["per_size"]) == {"3", "4"}
     assert metrics["assemblies"]["test"] >= 2
     assert metrics["checkpoint"].endswith("best.ckpt")
