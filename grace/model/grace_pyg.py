@@ -74,13 +74,13 @@ class NetConfig:
     `pair_readout` (not in the paper: 0 by default) is the width of a relational readout that
     keeps the shared embedding: from the state-blind surface features it forms a feature vector
     per ordered pair of parts, the mean over their surface pairs of
-    LeakyReLU(W_dst x_a + W_src x_b + w · relation_ab); a state then sums it over the other placed
-    parts and over the other unplaced parts, and one layer fuses both sums into the part features
-    before the head. So a part reads "which of my neighbours are placed, and which still wait" at
-    the cost of two small matrix products per state. Each of `readout_rounds − 1` further rounds
-    sends every part's fused features, projected to the pair width, through the same pair
-    features to the other parts (two hops: "is the neighbour that I would block still waiting,
-    and can it still be placed?").
+    LeakyReLU(W_dst x_a + W_src x_b + w · relation_ab); a state then pools it (`pool`) over the
+    other placed parts and over the other unplaced parts, and one layer fuses both pools into the
+    part features before the head. So a part reads "which of my neighbours are placed, and which
+    still wait" at the cost of a few small tensor operations per state. Each of
+    `readout_rounds − 1` further rounds sends every part's fused features, projected to the pair
+    width, through the same pair features to the other parts (two hops: "is the neighbour that I
+    would block still waiting, and can it still be placed?").
 
     `pool` (:class:`Pool`) says how pair features are pooled over placed, over unplaced and (in
     further rounds) over all other parts. With `mean` or `max` the fuse layer also reads the
