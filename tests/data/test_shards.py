@@ -5,9 +5,10 @@ import time
 import numpy as np
 import pytest
 from hydra.utils import instantiate
+from shard_damage import SHARD_DAMAGE, damage_shard
 
 from grace.data.records import dumps
-from grace.data.shards import ShardError, ShardInfo, encode_shard, read_shard, write_shard
+from grace.data.shards import ShardError, ShardInfo, read_shard, write_shard
 
 
 def _samples(fake_simulator):
@@ -40,24 +41,12 @@ def test_shard_round_trip(tmp_path, fake_simulator):
     assert read_shard(tmp_path / "s.jsonl.gz", info) == samples
 
 
-def _corrupt(path, how, samples):
-    data = path.read_bytes()
-    if how == "empty":
-        path.write_bytes(b"")
-    elif how == "half":
-        path.write_bytes(data[: len(data) // 2])
-    elif how == "flipped":
-        path.write_bytes(data[:40] + bytes(b ^ 0xFF for b in data[40:48]) + data[48:])
-    elif how == "fewer records":  # a valid gzip of valid records, one short
-        path.write_bytes(encode_shard(samples[:-1]))
-
-
-@pytest.mark.parametrize("how", ["empty", "half", "flipped", "fewer records"])
+@pytest.mark.parametrize("how", SHARD_DAMAGE)
 def test_a_damaged_shard_is_an_error_naming_it(tmp_path, fake_simulator, how):
     samples = _samples(fake_simulator)
     path = tmp_path / "s.jsonl.gz"
     info = write_shard(path, samples)
-    _corrupt(path, how, samples)
+    damage_shard(path, how, samples)
     with pytest.raises(ShardError, match=rf"^{path}: shard corrupted"):
         read_shard(path, info)
 

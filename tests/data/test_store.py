@@ -11,10 +11,11 @@ from pathlib import Path
 import pytest
 from hydra.utils import instantiate
 from omegaconf import open_dict
+from shard_damage import SHARD_DAMAGE, damage_shard
 
 from grace.data import claims
 from grace.data.records import dumps, loads
-from grace.data.shards import SHARD_SUFFIX, encode_shard
+from grace.data.shards import SHARD_SUFFIX
 from grace.data.store import plan, read_chunks, seconds_per_assembly
 from grace.errors import UserError
 
@@ -180,31 +181,17 @@ def test_a_bad_simulator_config_fails_once_in_the_parent(fake_cfg, tmp_path):
 
 def _damage(chunk, root, how):
     shard, manifest = chunk.path(root), chunk.manifest_path(root)
-    data = shard.read_bytes()
-    if how == "empty shard":
-        shard.write_bytes(b"")
-    elif how == "half a shard":
-        shard.write_bytes(data[: len(data) // 2])
-    elif how == "flipped bytes":
-        shard.write_bytes(data[:30] + bytes(b ^ 0x5A for b in data[30:34]) + data[34:])
-    elif how == "valid gzip, fewer records":
-        shard.write_bytes(encode_shard(read_chunks(root, [chunk])[:1]))
-    elif how == "truncated manifest":
+    if how == "truncated manifest":
         manifest.write_bytes(manifest.read_bytes()[:25])
     elif how == "no manifest":  # killed between the shard and its manifest
         manifest.unlink()
+    else:
+        damage_shard(shard, how, read_chunks(root, [chunk]))
 
 
 @pytest.mark.parametrize(
     "how",
-    [
-        "empty shard",
-        "half a shard",
-        "flipped bytes",
-        "valid gzip, fewer records",
-        "truncated manifest",
-        "no manifest",
-    ],
+    [*SHARD_DAMAGE, "truncated manifest", "no manifest"],
 )
 def test_a_damaged_chunk_is_reported_set_aside_and_generated_again(fake_cfg, how, caplog):
     cfg = fake_cfg()
@@ -232,7 +219,7 @@ def test_a_damaged_chunk_is_reported_set_aside_and_generated_again(fake_cfg, how
 def test_a_damaged_shard_found_at_read_is_one_line_with_the_fix(fake_cfg):
     cfg = fake_cfg()
     generation = generate(cfg)
-    _damage(generation.chunks[0], generation.path, "half a shard")
+    _damage(generation.chunks[0], generation.path, "half")
     with pytest.raises(UserError, match=r"000000-000002\.jsonl\.gz: shard corrupted .*fix: rerun"):
         read_chunks(generation.path, generation.chunks)
 
