@@ -262,7 +262,7 @@ class SharedWork:
     pair: tuple[torch.Tensor, torch.Tensor] | None  # part_block_pair's (no state_blocks)
     flag_attention: FlagAttention | None  # the first state-aware block's logits (state_blocks)
     relations: torch.Tensor | None  # (A, N_src, N_dst, pair_readout) part-pair features, if any
-    relation_totals: torch.Tensor | None  # (A, N_dst, pair_readout) relations summed over sources
+    relation_totals: torch.Tensor | None  # (A, N_dst, P) relations summed over sources (no max)
 
 
 def pair_relations(net: GraceNet, dense: DenseAssemblies, static: torch.Tensor) -> torch.Tensor:
@@ -302,7 +302,7 @@ def shared_work(net: GraceNet, dense: DenseAssemblies) -> SharedWork:
     relations, totals = None, None
     if net.cfg.pair_readout:
         relations = pair_relations(net, dense, static)
-        totals = relations.sum(dim=1)
+        totals = None if net.cfg.pool == Pool.max else relations.sum(dim=1)
     return SharedWork(static, pair, flags, relations, totals)
 
 
@@ -324,25 +324,23 @@ def pair_readout(
     t, n = flags.shape
     pool = net.cfg.pool
     rel = _by_state(shared.relations, state_assembly)  # (T or 1, N_src, N_dst, P)
-    if rel.shape[0] == 1:
-        placed = (flags @ rel.view(n, -1)).view(t, n, -1)
+    if pool == Pool.max:
+        pairs = _pairs(_by_state(dense.part_mask, state_assembly))  # (T or 1, N_src, N_dst)
+        on = flags.unsqueeze(-1) > 0.5
+        pooled = [_max(rel, pairs & on), _max(rel, pairs & ~on)]
     else:
-        placed = torch.bmm(flags.unsqueeze(1), rel.view(t, n, -1)).view(t, n, -1)
-    unplaced = _by_state(shared.relation_totals, state_assembly) - placed
-    pooled = [placed, unplaced]
+        if rel.shape[0] == 1:
+            placed = (flags @ rel.view(n, -1)).view(t, n, -1)
+        else:
+            placed = torch.bmm(flags.unsqueeze(1), rel.view(t, n, -1)).view(t, n, -1)
+        pooled = [placed, _by_state(shared.relation_totals, state_assembly) - placed]
     if pool != Pool.sum:
-        real = _by_state(dense.part_mask, state_assembly).to(flags.dtype)  # (T or 1, N)
+        real = _by_state(dense.part_mask, state_assembly).to(flags.dtype)
         others = (real.sum(dim=-1, keepdim=True) - real).clamp(min=1)  # (T or 1, N_dst)
         placed_others = flags.sum(dim=-1, keepdim=True) - flags
-        pairs = _pairs(real)  # (T or 1, N_src, N_dst)
         if pool == Pool.mean:
-            pooled = [
-                placed / placed_others.clamp(min=1).unsqueeze(-1),
-                unplaced / (others - placed_others).clamp(min=1).unsqueeze(-1),
-            ]
-        else:
-            on = flags.unsqueeze(-1) > 0.5
-            pooled = [_max(rel, pairs & on), _max(rel, pairs & ~on & (real.unsqueeze(-1) > 0.5))]
+            pooled[0] = pooled[0] / placed_others.clamp(min=1).unsqueeze(-1)
+            pooled[1] = pooled[1] / (others - placed_others).clamp(min=1).unsqueeze(-1)
         pooled.append((placed_others / others).unsqueeze(-1))
     h = torch.tanh(_linear(net.fuse, torch.cat([h, *pooled], dim=-1)))
     for gate, fuse in zip(net.round_gates, net.round_fuses, strict=True):
@@ -358,11 +356,10 @@ def pair_readout(
 
 
 def _pairs(real: torch.Tensor) -> torch.Tensor:
-    """(T, N_src, N_dst) bool: the ordered pairs of two different real parts."""
-    n = real.shape[-1]
-    distinct = ~torch.eye(n, dtype=torch.bool, device=real.device)
-    on = real > 0.5
-    return on.unsqueeze(-1) & on.unsqueeze(-2) & distinct
+    """(T, N_src, N_dst) bool: the ordered pairs of two different real parts (`real`: (T, N)
+    bool)."""
+    distinct = ~torch.eye(real.shape[-1], dtype=torch.bool, device=real.device)
+    return real.unsqueeze(-1) & real.unsqueeze(-2) & distinct
 
 
 def _max(values: torch.Tensor, keep: torch.Tensor) -> torch.Tensor:
