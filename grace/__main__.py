@@ -8,6 +8,8 @@ and its worker processes (grace/cli/signals.py); the same command with
 """
 
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 import hydra
 from omegaconf import DictConfig
@@ -48,20 +50,30 @@ def _interrupted(out: str) -> None:
 def main() -> None:
     """Check the command line, then let Hydra run it."""
     sigterm_as_interrupt()
-    try:
-        with user_errors(debugging(sys.argv[1:])):
-            preflight(sys.argv[1:])
-            sys.argv += run_dir_overrides(sys.argv[1:])
-    except KeyboardInterrupt:
-        _stopped_early("grace: interrupted before the run started; nothing was written")
-    try:
+    before_run = "grace: interrupted before the run started; nothing was written"
+    with _stops_early(before_run), user_errors(debugging(sys.argv[1:])):
+        preflight(sys.argv[1:])
+        sys.argv += run_dir_overrides(sys.argv[1:])
+    # While Hydra composes the config or sets up the run folder:
+    with _stops_early("grace: interrupted before the task started"):
         run()
-    except KeyboardInterrupt:  # while Hydra composes the config or sets up the run folder
-        _stopped_early("grace: interrupted before the task started")
+
+
+@contextmanager
+def _stops_early(message: str) -> Iterator[None]:
+    """A stop before any worker or file exists: `message` and exit 130. As in :func:`run`, an
+    error raised after a stop signal is that stop (the signal broke what was running)."""
+    try:
+        yield
+    except Exception:
+        if not stopped():
+            raise
+        _stopped_early(message)
+    except KeyboardInterrupt:
+        _stopped_early(message)
 
 
 def _stopped_early(message: str) -> None:
-    """Exit 130 before any worker or file exists."""
     print(message, file=sys.stderr)
     sys.exit(EXIT_INTERRUPTED)
 

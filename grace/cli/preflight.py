@@ -29,6 +29,7 @@ from omegaconf.errors import OmegaConfBaseException
 from grace import CONF_DIR
 from grace.cli.checks import check_config, ignored_options
 from grace.cli.schemas import light_schemas, referenced_schemas, register_schemas
+from grace.cli.signals import stopped
 from grace.cli.values import check_bounds
 from grace.errors import UserError
 
@@ -66,10 +67,13 @@ def debugging(argv: list[str]) -> bool:
 
 @contextmanager
 def user_errors(debug: bool) -> Iterator[None]:
-    """Print a user error as one line on stderr and exit 2 (re-raise it when `debug`)."""
+    """Print a user error as one line on stderr and exit 2 (re-raise it when `debug`); after a
+    stop signal, raise the stop instead (grace/cli/signals.py)."""
     try:
         yield
     except CONFIG_ERRORS as error:
+        if stopped():  # a stop signal broke the config library's state midway: no user error
+            raise KeyboardInterrupt("stopped while composing the config") from error
         if debug:
             raise
         print(f"grace: error: {one_line(error)}", file=sys.stderr)

@@ -10,7 +10,10 @@ import time
 from pathlib import Path
 
 import pytest
+from omegaconf.errors import ConfigKeyError
 
+from grace.cli import preflight, signals
+from grace.cli.preflight import EXIT_USER_ERROR, user_errors
 from grace.cli.signals import held_while_loading, sigterm_as_interrupt
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -70,9 +73,10 @@ def test_sigterm_in_training_is_one_line_and_exit_130(tmp_path, group):
     ], output
 
 
-def test_a_stop_while_libraries_load_arrives_after_them():
+def test_a_stop_while_libraries_load_arrives_after_them(monkeypatch):
     """A SIGTERM inside the block is held (an import interrupted midway can fail as an
     ImportError or leave CPython's interrupt flag set) and raised once the block ends."""
+    monkeypatch.setattr(signals, "_received", [])  # this process's own record of stops
     before = signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGINT)
     sigterm_as_interrupt()
     finished = False
@@ -84,3 +88,17 @@ def test_a_stop_while_libraries_load_arrives_after_them():
         signal.signal(signal.SIGTERM, before[0])
         signal.signal(signal.SIGINT, before[1])
     assert finished
+
+
+def test_a_config_error_after_a_stop_signal_is_the_stop(monkeypatch):
+    """A signal that lands inside the config library can leave it broken midway, and the error
+    that follows names a config key: after a stop it is the stop (exit 130), not a user error
+    (exit 2); without a stop the same error stays a user error."""
+    error = ConfigKeyError("'NoneType' object has no attribute '_invalidate_flags_cache'")
+    monkeypatch.setattr(preflight, "stopped", lambda: False)
+    with pytest.raises(SystemExit) as user_error, user_errors(debug=False):
+        raise error
+    assert user_error.value.code == EXIT_USER_ERROR
+    monkeypatch.setattr(preflight, "stopped", lambda: True)
+    with pytest.raises(KeyboardInterrupt), user_errors(debug=False):
+        raise error
