@@ -59,18 +59,21 @@ def pair_geometry(assembly: Assembly, scale: float) -> np.ndarray:
     """(N, N, PAIR_GEOMETRY_FEATURES) float array, `[m, n]` = part m seen from part n; lengths
     divided by `scale` mm; the diagonal is 0.
 
-    All pairs at once, in a few array operations (the encoding is on the path of a cold
-    next-step query). Poses turn by quarter turns, so a box's turned corners are the corners of
-    the turned box."""
+    All pairs at once, in a few array operations on (N, N) arrays (the encoding is on the path
+    of a cold next-step query). Poses turn by quarter turns, so a box's turned corners are the
+    corners of the turned box: m's bounding box seen from n is its two world corners moved into
+    n's frame, then sorted per axis."""
     parts = assembly.parts
     n = len(parts)
     poses = np.stack([p.pose for p in parts])
-    rot, shift = poses[:, :2, :2], poses[:, None, :2, 3]  # (N, 2, 2), (N, 1, 2)
+    rot, shift = poses[:, :2, :2], poses[:, :2, 3]  # (N, 2, 2), (N, 2)
     local = np.stack([_local_corners(p.type) for p in parts])
-    world = local @ rot.transpose(0, 2, 1) + shift  # (N, 8, 2)
-    # seen[k, m] = R_kᵀ (corners_m − t_k): every part's corners in every part's frame.
-    seen = np.einsum("kmcd,kde->kmce", world[None] - shift[:, None], rot)
-    box = np.concatenate([seen.min(axis=2), seen.max(axis=2)], axis=-1)  # (N_from, N, 4)
+    world = local @ rot.transpose(0, 2, 1) + shift[:, None]  # (N, 8, 2)
+    corners = np.stack([world.min(axis=1), world.max(axis=1)])  # (2, N, 2): low, high
+    # seen[c, k, m] = R_kᵀ (corner c of m − t_k): m's two box corners in k's frame.
+    d = corners[:, None] - shift[None, :, None]  # (2, N_from, N, 2)
+    seen = d[..., :1] * rot[None, :, None, 0] + d[..., 1:] * rot[None, :, None, 1]
+    box = np.concatenate([seen.min(axis=0), seen.max(axis=0)], axis=-1)  # (N_from, N, 4)
     diagonal = np.arange(n)
     own = box[diagonal, diagonal][:, None]  # (N_from, 1, 4): each part in its own frame
     gaps = np.maximum(box[..., :2] - own[..., 2:], own[..., :2] - box[..., 2:])
