@@ -325,9 +325,9 @@ def pair_readout(
     pool = net.cfg.pool
     rel = _by_state(shared.relations, state_assembly)  # (T or 1, N_src, N_dst, P)
     if pool == Pool.max:
-        pairs = _pairs(_by_state(dense.part_mask, state_assembly))  # (T or 1, N_src, N_dst)
-        on = flags.unsqueeze(-1) > 0.5
-        pooled = [_max(rel, pairs & on), _max(rel, pairs & ~on)]
+        apart = _not_pairs(_by_state(dense.part_mask, state_assembly))  # (T or 1, N, N, 1)
+        placed = (flags > 0.5).view(t, n, 1, 1)  # by source part
+        pooled = [_max(rel, apart | ~placed), _max(rel, apart | placed)]
     else:
         if rel.shape[0] == 1:
             placed = (flags @ rel.view(n, -1)).view(t, n, -1)
@@ -346,7 +346,7 @@ def pair_readout(
     for gate, fuse in zip(net.round_gates, net.round_fuses, strict=True):
         values = rel * _linear(gate, h).unsqueeze(2)
         if pool == Pool.max:
-            message = _max(values, pairs)
+            message = _max(values, apart)
         else:
             message = values.sum(dim=1)
             if pool == Pool.mean:
@@ -355,18 +355,18 @@ def pair_readout(
     return h
 
 
-def _pairs(real: torch.Tensor) -> torch.Tensor:
-    """(T, N_src, N_dst) bool: the ordered pairs of two different real parts (`real`: (T, N)
-    bool)."""
-    distinct = ~torch.eye(real.shape[-1], dtype=torch.bool, device=real.device)
-    return real.unsqueeze(-1) & real.unsqueeze(-2) & distinct
+def _not_pairs(real: torch.Tensor) -> torch.Tensor:
+    """(T, N_src, N_dst, 1) bool: True where (source, destination) is not an ordered pair of
+    two different real parts (`real`: (T, N) bool); the masks of :func:`_max`, built once."""
+    same = torch.eye(real.shape[-1], dtype=torch.bool, device=real.device)
+    return (same | ~(real.unsqueeze(-1) & real.unsqueeze(-2))).unsqueeze(-1)
 
 
-def _max(values: torch.Tensor, keep: torch.Tensor) -> torch.Tensor:
-    """Max of `values` (T, N_src, N_dst, P) over the sources where `keep` (T, N_src, N_dst);
-    0 for a destination with none."""
-    out = values.masked_fill(~keep.unsqueeze(-1), -torch.inf).amax(dim=1)
-    return out.masked_fill(out == -torch.inf, 0.0)
+def _max(values: torch.Tensor, drop: torch.Tensor) -> torch.Tensor:
+    """Max of `values` (T, N_src, N_dst, P) over the sources not in `drop` (T, N_src, N_dst,
+    1); 0 for a destination with none (only those come out −inf; a NaN or +inf stays)."""
+    out = values.masked_fill(drop, -torch.inf).amax(dim=1)
+    return torch.nan_to_num(out, nan=torch.nan, posinf=torch.inf, neginf=0.0)
 
 
 def state_features(
@@ -396,8 +396,12 @@ def state_features(
 
 
 def fast_logits(
-    net: GraceNet, dense: DenseAssemblies, state_assembly: torch.Tensor, flags: torch.Tensor
+    net: GraceNet,
+    dense: DenseAssemblies,
+    state_assembly: torch.Tensor,
+    flags: torch.Tensor,
+    shared: SharedWork | None = None,
 ) -> torch.Tensor:
     """Part logits (T, N), or (T, N, 2) with the placeable head, for T states of the assemblies
-    in `dense` (padding parts arbitrary)."""
-    return net.readout(state_features(net, dense, state_assembly, flags))
+    in `dense` (padding parts arbitrary); `shared` as in :func:`state_features`."""
+    return net.readout(state_features(net, dense, state_assembly, flags, shared))
