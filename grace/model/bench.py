@@ -11,7 +11,7 @@ import torch
 
 from grace.domain.sample import LabelledAssembly
 from grace.graphs.datamodule import AssemblyBatchSampler, StateDataset, merge_chunks
-from grace.model.impls import NetImpl
+from grace.model.impls import CompiledImpl, NetImpl
 from grace.model.module import GraceModule
 from grace.model.scoring import make_scorer
 
@@ -82,3 +82,38 @@ def infer_ms_per_state(
         scorer(assembly, np.array([state]))
         times.append(time.perf_counter() - start)
     return 1000.0 * float(np.median(times))
+
+
+def compiled_inference(
+    module: GraceModule, samples: list[LabelledAssembly], calls: int, backend: str
+) -> tuple[float, float, float]:
+    """The fast path through torch.compile (`backend`): seconds its first single-state query
+    spends (compiling, mostly), then median cold and warm ms per state as
+    :func:`infer_ms_per_state` measures them."""
+    impl = CompiledImpl(backend)
+    sample = samples[0]
+    start = time.perf_counter()
+    make_scorer(module, impl)(sample.assembly, sample.truth.states[:1])
+    compile_s = time.perf_counter() - start
+    cold = infer_ms_per_state(module, samples, impl, calls, False)
+    return compile_s, cold, infer_ms_per_state(module, samples, impl, calls, True)
+
+
+def inference_table(bench: dict[str, Any]) -> str:
+    """Markdown: median ms per single-state query of each path, cold (a new assembly) and warm
+    (an assembly already seen), from `bench.json`'s figures."""
+    cold, warm = bench["infer_ms_per_state"], bench["infer_ms_per_state_warm"]
+    lines = ["| path | size | cold ms | warm ms |", "|---|---|---|---|"]
+    for path, by_size in cold.items():
+        for size, ms in by_size.items():
+            hot = warm.get(path, {}).get(size)
+            lines.append(
+                f"| {path} | A{size} | {ms:.3f} | {'—' if hot is None else f'{hot:.3f}'} |"
+            )
+    if bench.get("compile_s") is not None:
+        lines.append("")
+        lines.append(
+            f"The compiled path's first query took {bench['compile_s']:.1f} s (compiling)."
+        )
+    lines.append(f"{bench['threads']} thread(s); median of {bench['infer_calls']} calls.")
+    return "\n".join(lines) + "\n"

@@ -4,7 +4,9 @@ Both run the same parameters (grace_pyg.GraceNet) and agree to 1e-5; they differ
 holds and how the forward pass walks it:
 - :class:`FastImpl` (`model/impl=fast`, default): padded per-assembly tensors, one surface
   embedding shared by all states of an assembly, dense attention (grace_fast.py);
-- :class:`PygImpl` (`model/impl=pyg`): one PyG heterogeneous graph per state, the reference.
+- :class:`PygImpl` (`model/impl=pyg`): one PyG heterogeneous graph per state, the reference;
+- :class:`CompiledImpl` (`model/impl=compiled`): the fast path, its planning queries through
+  torch.compile (training runs the fast path as it is).
 
 An implementation gives the training batches (`collate`, handed to the DataModule), the logits of
 a training batch (`logits`) and the logits of many states of one assembly for planning
@@ -12,6 +14,9 @@ a training batch (`logits`) and the logits of many states of one assembly for pl
 """
 
 from __future__ import annotations
+
+import functools
+from collections.abc import Callable
 
 import numpy as np
 import torch
@@ -25,6 +30,10 @@ from grace.graphs.dense import DenseAssemblies
 from grace.model.grace_fast import SharedWork, fast_logits, shared_work, state_features
 from grace.model.grace_pyg import GraceNet
 
+FAST_STEPS = (shared_work, fast_logits)
+"""The fast path's two steps for planning: the work an assembly's states share, then a state's
+logits from it."""
+
 
 class PreparedAssembly:
     """One assembly's encoded tensors on the network's `device` and, once needed, the work all
@@ -36,19 +45,36 @@ class PreparedAssembly:
         self.assembly = assembly
         self.tensors = tensors
         self.device = torch.device(device)
-        self.dense = move_data_to_device(DenseAssemblies.stack([tensors]), self.device)
+        self.dense = DenseAssemblies.stack([tensors])
+        if self.dense.surface_x.device != self.device:  # the walk costs a cold query 30 µs
+            self.dense = move_data_to_device(self.dense, self.device)
         self._shared: SharedWork | None = None
 
-    def shared(self, net: GraceNet) -> SharedWork:
+    def shared(self, net: GraceNet, work: Callable[..., SharedWork] = shared_work) -> SharedWork:
+        """The work its states share, computed by `work` (shared_work or a compiled copy)."""
         if self._shared is None:
-            self._shared = shared_work(net, self.dense)
+            self._shared = work(net, self.dense)
         return self._shared
+
+    def _states(self, states: np.ndarray) -> tuple[torch.Tensor, torch.Tensor]:
+        """The assembly index (all 0) and the assembled flags of each state."""
+        flags = state_flags(states, self.assembly.n_parts).to(self.device)
+        return torch.zeros(len(flags), dtype=torch.long, device=self.device), flags
 
     def part_features(self, net: GraceNet, states: np.ndarray) -> torch.Tensor:
         """Part features before the head (len(states), n_parts, hidden), on the fast path."""
-        flags = state_flags(states, self.assembly.n_parts).to(self.device)
-        index = torch.zeros(len(flags), dtype=torch.long, device=self.device)
-        return state_features(net, self.dense, index, flags, self.shared(net))
+        return state_features(net, self.dense, *self._states(states), self.shared(net))
+
+    def logits(
+        self,
+        net: GraceNet,
+        states: np.ndarray,
+        work: Callable[..., SharedWork] = shared_work,
+        logits: Callable[..., torch.Tensor] = fast_logits,
+    ) -> torch.Tensor:
+        """Logits of `states` on the fast path (`work` and `logits`: its two steps, or compiled
+        copies of them)."""
+        return logits(net, self.dense, *self._states(states), self.shared(net, work))
 
 
 class FastImpl:
@@ -64,7 +90,7 @@ class FastImpl:
     def assembly_logits(
         self, net: GraceNet, prepared: PreparedAssembly, states: np.ndarray
     ) -> torch.Tensor:
-        return net.readout(prepared.part_features(net, states))
+        return prepared.logits(net, states)
 
 
 class PygImpl:
@@ -88,4 +114,36 @@ class PygImpl:
         return flat.view(len(states), prepared.assembly.n_parts, *flat.shape[1:])
 
 
-NetImpl = FastImpl | PygImpl
+class CompiledImpl(FastImpl):
+    """The fast path with its planning queries compiled by torch.compile (inductor).
+
+    A query of one state is a few hundred small tensor operations, each costing more in
+    dispatch than in arithmetic (docs/training.md, "Inference"); compiled, they run as a few
+    fused C++ loops. Shapes are dynamic, so a new assembly reuses the compiled code; compiling
+    costs about half a minute the first time a process scores one state and again the first
+    time it scores many: it pays for a planning session, not for one query. Training runs the
+    fast path as it is (`logits` is FastImpl's).
+    """
+
+    name = "compiled"
+
+    def __init__(self, backend: str = "inductor") -> None:
+        self.backend = backend
+
+    @functools.cached_property
+    def _compiled(self) -> tuple[Callable[..., SharedWork], Callable[..., torch.Tensor]]:
+        """shared_work and fast_logits compiled, on first use (compiling happens at the
+        first call of each)."""
+        return tuple(torch.compile(f, dynamic=True, backend=self.backend) for f in FAST_STEPS)
+
+    def __getstate__(self) -> dict:
+        """Pickled (a checkpoint's hyper-parameters) without the compiled code."""
+        return {"backend": self.backend}
+
+    def assembly_logits(
+        self, net: GraceNet, prepared: PreparedAssembly, states: np.ndarray
+    ) -> torch.Tensor:
+        return prepared.logits(net, states, *self._compiled)
+
+
+NetImpl = FastImpl | PygImpl | CompiledImpl

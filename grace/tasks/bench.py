@@ -7,7 +7,8 @@ Side by side in one run, same weights, `cfg.threads` threads:
 - inference: one A7 state per call, end to end from the Assembly (encoding, graph, forward);
   "cold" empties the scorer's per-assembly cache before every call, "warm" reuses the
   per-assembly cache that planning over many states of one assembly enjoys (fast path only;
-  the PyG path has no shared work);
+  the PyG path has no shared work); with `task.compile_backend` also the fast path through
+  torch.compile (model/impl=compiled), beside the seconds its first calls spent compiling;
 - planning (grace.planning.bench): scoring every order of one A7 assembly via its
   distinct states versus the per-prefix recursion, with each path's scorer (untrained weights:
   timing only; prefix passes capped at `task.prefix_passes` and extrapolated);
@@ -35,11 +36,17 @@ from omegaconf import MISSING, DictConfig
 
 from grace.cli.epoch_profile import profile_epochs
 from grace.cli.runner import TaskSettings
-from grace.data.atomic import strict_json, write_json_atomic
+from grace.data.atomic import strict_json, write_json_atomic, write_text_atomic
 from grace.evaluation.baselines import BASELINES
 from grace.evaluation.bench import evaluate_ms_per_assembly
 from grace.graphs.datamodule import StateDataset
-from grace.model.bench import feasible_assemblies, infer_ms_per_state, train_graphs_per_s
+from grace.model.bench import (
+    compiled_inference,
+    feasible_assemblies,
+    infer_ms_per_state,
+    inference_table,
+    train_graphs_per_s,
+)
 from grace.model.grace_pyg import count_parameters
 from grace.model.impls import FastImpl, NetImpl, PygImpl
 from grace.model.scoring import make_scorer
@@ -61,6 +68,7 @@ class BenchSettings(TaskSettings):
     train_steps: int = MISSING
     infer_calls: int = MISSING
     prefix_passes: int = MISSING
+    compile_backend: str | None = MISSING
     profile: bool = MISSING
     profile_epochs: int = MISSING
 
@@ -98,6 +106,13 @@ def run(cfg: DictConfig) -> float:
     # Only the fast path shares work between the states of an assembly.
     warm = infer_ms_per_state(module, infer, FastImpl(), calls, True)
     infer_warm["fast"] = {str(infer_size): warm}
+    compile_s = None
+    if cfg.task.compile_backend:
+        compile_s, cold, warm = compiled_inference(module, infer, calls, cfg.task.compile_backend)
+        infer_cold["compiled"], infer_warm["compiled"] = (
+            {str(infer_size): cold},
+            {str(infer_size): warm},
+        )
     planning = {
         impl.name: planner_benchmark(
             make_scorer(module, impl), infer[0].assembly, prefix_passes=int(cfg.task.prefix_passes)
@@ -115,13 +130,16 @@ def run(cfg: DictConfig) -> float:
         "train_graphs_per_s": speed,
         "infer_ms_per_state": infer_cold,
         "infer_ms_per_state_warm": infer_warm,
+        "compile_s": compile_s,
         "speedup_train": speed["fast"] / speed["pyg"],
         "planning": planning,
         "evaluate_ms_per_assembly": evaluation,
         "threads": torch.get_num_threads(),
+        "infer_calls": calls,
         "batch_size": batch_size,
         "assemblies": {str(train_size): len(train), str(infer_size): len(infer)},
     }
     write_json_atomic(out_dir / "bench.json", result)
+    write_text_atomic(out_dir / "inference.md", inference_table(result))
     print(strict_json(result))
     return result["speedup_train"]

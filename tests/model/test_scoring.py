@@ -8,7 +8,7 @@ from hydra.utils import instantiate
 from grace.evaluation.step_states import dead_end_steps, label_matrix
 from grace.graphs.encoding import GraphEncoding
 from grace.model.grace_pyg import NetConfig, Score
-from grace.model.impls import FastImpl, PygImpl
+from grace.model.impls import CompiledImpl, FastImpl, PygImpl
 from grace.model.module import GraceModule
 from grace.model.scoring import make_scorer, part_embeddings
 
@@ -34,6 +34,24 @@ def test_scorer_batches_states_and_matches_the_pyg_path(samples, state_blocks, p
         np.testing.assert_allclose(pyg(sample.assembly, states), scores, atol=1e-4)
         single = np.vstack([fast(sample.assembly, np.array([s])) for s in states])
         np.testing.assert_allclose(single, scores, atol=1e-4)
+
+
+@pytest.mark.parametrize("backend", ["eager", pytest.param("inductor", marks=pytest.mark.slow)])
+def test_the_compiled_path_scores_as_the_fast_path(samples, backend):
+    """Traced by dynamo (`eager`: the plumbing, in seconds) or compiled to C++ (`inductor`):
+    one state and many, on assemblies of several sizes (dynamic shapes, no recompiling per
+    size), with the default network's relational readout and max pool."""
+    torch.manual_seed(0)
+    net = NetConfig(pair_readout=8, readout_rounds=3, pool="max", placeable_head=True)
+    adam = functools.partial(torch.optim.Adam, lr=1e-3)
+    m = GraceModule(net, GraphEncoding(), FastImpl(), adam)
+    fast, compiled = make_scorer(m), make_scorer(m, CompiledImpl(backend))
+    for sample in samples[:4]:
+        states = sample.truth.states
+        for query in (states[:1], states[-2:-1], states):
+            np.testing.assert_allclose(
+                compiled(sample.assembly, query), fast(sample.assembly, query), atol=1e-5
+            )
 
 
 def test_part_embeddings_shape(samples):

@@ -21,6 +21,7 @@ def test_bench_writes_side_by_side_figures(cfg_factory, fake_simulator, model, p
     cfg = _bench_cfg(
         cfg_factory, fake_simulator, f"model={model}", "task.assemblies=3",
         "task.train_steps=2", "task.infer_calls=3", "task.prefix_passes=5",
+        "task.compile_backend=eager",
     )  # fmt: skip
     speedup = run(cfg)
     bench = json.loads(Path(cfg.paths.output_dir, "bench.json").read_text())
@@ -29,7 +30,11 @@ def test_bench_writes_side_by_side_figures(cfg_factory, fake_simulator, model, p
     assert all(v > 0 for v in bench["train_graphs_per_s"].values())
     for impl in ("pyg", "fast"):
         assert bench["infer_ms_per_state"][impl]["7"] > 0
-    assert bench["infer_ms_per_state_warm"]["fast"]["7"] > 0
+    for impl in ("fast", "compiled"):
+        assert bench["infer_ms_per_state_warm"][impl]["7"] > 0
+    assert bench["infer_ms_per_state"]["compiled"]["7"] > 0 and bench["compile_s"] > 0
+    table = Path(cfg.paths.output_dir, "inference.md").read_text()
+    assert "| compiled | A7 |" in table and "| pyg | A7 |" in table
     assert set(bench["evaluate_ms_per_assembly"]) == {"GRACE", "random", "constant", "never"}
     assert all(v["7"] > 0 for v in bench["evaluate_ms_per_assembly"].values())
     assert speedup == bench["train_graphs_per_s"]["fast"] / bench["train_graphs_per_s"]["pyg"]
