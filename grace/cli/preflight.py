@@ -30,7 +30,7 @@ from grace import CONF_DIR
 from grace.cli.checks import check_config, ignored_options
 from grace.cli.schemas import light_schemas, referenced_schemas, register_schemas
 from grace.cli.signals import stopped
-from grace.cli.values import check_bounds
+from grace.cli.values import check_bounds, check_override_bounds
 from grace.errors import UserError
 
 EXIT_USER_ERROR = 2
@@ -123,6 +123,7 @@ def preflight(argv: list[str]) -> None:
     for warning in ignored_options(cfg, overrides):
         print(f"grace: warning: {warning}", file=sys.stderr)
     check_config(cfg)
+    check_override_bounds(overrides)  # before the heavy imports
     register_schemas()
     check_bounds(_compose(overrides, set()))  # keys of the groups the light compose left open
 

@@ -63,6 +63,14 @@ def check_bounds(cfg: DictConfig) -> None:
             raise UserError(f"{bound.key}={value} is outside {bound.interval()}; fix: {bound.fix}")
 
 
+def check_override_bounds(overrides: list[str]) -> None:
+    """:func:`check_bounds` on the command line's own `key=value` overrides of BOUNDS' keys:
+    the keys of groups whose schemas load with torch are refused in a second, before that."""
+    keys = {bound.key for bound in BOUNDS}
+    mine = [o.removeprefix("++").removeprefix("+") for o in overrides]
+    check_bounds(OmegaConf.from_dotlist([o for o in mine if o.split("=", 1)[0] in keys]))
+
+
 FOLDERS = (("paths.data_dir", " (or GRACE_DATA_DIR)"), ("paths.output_dir", ""))
 """The folders a run writes: config key, and what else sets it."""
 

@@ -194,11 +194,12 @@ def test_a_bad_value_is_refused_before_any_work(tmp_path, read_only, case):
     overrides = [a for a in arguments if not a.startswith("GRACE_DATA_DIR=")]
     if not env and not any(a.startswith("paths.data_dir=") for a in overrides):
         overrides.append(f"paths.data_dir={tmp_path / 'd'}")
-    code, lines, _, _ = grace(tmp_path, *overrides, env=env)
+    code, lines, modules, seconds = grace(tmp_path, *overrides, env=env)
     assert code == 2, lines
     assert len(lines) == 1 and lines[0].startswith("grace: error: "), lines
     assert re.search(expected, lines[0]), lines[0]
     assert files(tmp_path) == before  # no run folder, no log, no cache
+    assert not modules & set(HEAVY), f"{case}: heavy imports before the error ({seconds:.1f} s)"
 
 
 def test_an_option_the_protocol_ignores_is_named_at_once(tmp_path):
