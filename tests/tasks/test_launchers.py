@@ -62,6 +62,7 @@ TRAIN = (
 )
 
 
+@pytest.mark.slow  # half a minute of job processes; the experiment's sweep below also runs it
 def test_submitit_local_runs_a_two_job_sweep_like_the_basic_launcher(tmp_path):
     local = sweep(tmp_path, "submitit", "submitit_local", *TRAIN)
     basic = sweep(tmp_path, "basic", "basic", *TRAIN)
