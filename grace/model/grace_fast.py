@@ -395,6 +395,15 @@ def state_features(
     return h
 
 
+def first_logits(
+    net: GraceNet, dense: DenseAssemblies, state_assembly: torch.Tensor, flags: torch.Tensor
+) -> tuple[SharedWork, torch.Tensor]:
+    """:func:`shared_work` of `dense` and :func:`fast_logits` of its first states from it: a
+    cold query's whole work in one call (one compiled graph instead of two)."""
+    shared = shared_work(net, dense)
+    return shared, fast_logits(net, dense, state_assembly, flags, shared)
+
+
 def fast_logits(
     net: GraceNet,
     dense: DenseAssemblies,

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable
+from typing import NamedTuple
 
 import numpy as np
 import torch
@@ -27,12 +28,25 @@ from grace.domain.assembly import Assembly
 from grace.graphs.assembly_graph import AssemblyTensors, state_flags, state_graph
 from grace.graphs.datamodule import StateBatch, collate_dense, collate_graphs
 from grace.graphs.dense import DenseAssemblies
-from grace.model.grace_fast import SharedWork, fast_logits, shared_work, state_features
+from grace.model.grace_fast import (
+    SharedWork,
+    fast_logits,
+    first_logits,
+    shared_work,
+    state_features,
+)
 from grace.model.grace_pyg import GraceNet
 
-FAST_STEPS = (shared_work, fast_logits)
-"""The fast path's two steps for planning: the work an assembly's states share, then a state's
-logits from it."""
+
+class PlanningSteps(NamedTuple):
+    """The fast path's two calls for planning: a first query of an assembly (the work its states
+    share, and the queried states' logits), then the logits of further states from that work."""
+
+    first: Callable[..., tuple[SharedWork, torch.Tensor]]
+    logits: Callable[..., torch.Tensor]
+
+
+FAST_STEPS = PlanningSteps(first_logits, fast_logits)
 
 
 class PreparedAssembly:
@@ -50,10 +64,10 @@ class PreparedAssembly:
             self.dense = move_data_to_device(self.dense, self.device)
         self._shared: SharedWork | None = None
 
-    def shared(self, net: GraceNet, work: Callable[..., SharedWork] = shared_work) -> SharedWork:
-        """The work its states share, computed by `work` (shared_work or a compiled copy)."""
+    def shared(self, net: GraceNet) -> SharedWork:
+        """The work its states share."""
         if self._shared is None:
-            self._shared = work(net, self.dense)
+            self._shared = shared_work(net, self.dense)
         return self._shared
 
     def _states(self, states: np.ndarray) -> tuple[torch.Tensor, torch.Tensor]:
@@ -66,15 +80,14 @@ class PreparedAssembly:
         return state_features(net, self.dense, *self._states(states), self.shared(net))
 
     def logits(
-        self,
-        net: GraceNet,
-        states: np.ndarray,
-        work: Callable[..., SharedWork] = shared_work,
-        logits: Callable[..., torch.Tensor] = fast_logits,
+        self, net: GraceNet, states: np.ndarray, steps: PlanningSteps = FAST_STEPS
     ) -> torch.Tensor:
-        """Logits of `states` on the fast path (`work` and `logits`: its two steps, or compiled
-        copies of them)."""
-        return logits(net, self.dense, *self._states(states), self.shared(net, work))
+        """Logits of `states` on the fast path (`steps`: its calls, or compiled copies)."""
+        index, flags = self._states(states)
+        if self._shared is None:
+            self._shared, logits = steps.first(net, self.dense, index, flags)
+            return logits
+        return steps.logits(net, self.dense, index, flags, self._shared)
 
 
 class FastImpl:
@@ -131,10 +144,12 @@ class CompiledImpl(FastImpl):
         self.backend = backend
 
     @functools.cached_property
-    def _compiled(self) -> tuple[Callable[..., SharedWork], Callable[..., torch.Tensor]]:
-        """shared_work and fast_logits compiled, on first use (compiling happens at the
-        first call of each)."""
-        return tuple(torch.compile(f, dynamic=True, backend=self.backend) for f in FAST_STEPS)
+    def _compiled(self) -> PlanningSteps:
+        """The planning calls compiled, on first use (compiling happens at the first call of
+        each)."""
+        return PlanningSteps(
+            *(torch.compile(f, dynamic=True, backend=self.backend) for f in FAST_STEPS)
+        )
 
     def __getstate__(self) -> dict:
         """Pickled (a checkpoint's hyper-parameters) without the compiled code."""
@@ -143,7 +158,7 @@ class CompiledImpl(FastImpl):
     def assembly_logits(
         self, net: GraceNet, prepared: PreparedAssembly, states: np.ndarray
     ) -> torch.Tensor:
-        return prepared.logits(net, states, *self._compiled)
+        return prepared.logits(net, states, self._compiled)
 
 
 NetImpl = FastImpl | PygImpl | CompiledImpl
