@@ -23,6 +23,7 @@ name `grace_tests_conftest`, which the config's `_target_` uses (worker processe
 from __future__ import annotations
 
 import json
+import os
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -48,10 +49,15 @@ sys.modules[MODULE_ALIAS] = sys.modules[__name__]
 
 @pytest.fixture
 def cfg_factory(tmp_path: Path) -> Callable[..., DictConfig]:
-    """Compose the project config with command-line style overrides; outputs go to tmp_path."""
+    """Compose the project config with command-line style overrides; outputs go to tmp_path.
+    Under pytest-xdist (one worker per core) a run gets one thread unless a test sets `threads`:
+    two workers of two threads each on two cores spend their time waiting for each other."""
 
     def make(*overrides: str) -> DictConfig:
         out, data = tmp_path / "output", tmp_path / "data"
+        shared_cores = "PYTEST_XDIST_WORKER" in os.environ
+        if shared_cores and not any(o.startswith("threads=") for o in overrides):
+            overrides = ("threads=1", *overrides)
         register_schemas()
         GlobalHydra.instance().clear()
         with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):

@@ -25,7 +25,7 @@ def _epochs(path):
 
 def test_short_training_overfits_a_tiny_set(cfg_factory, samples, tmp_path):
     cfg = cfg_factory(
-        "trainer.max_epochs=40",
+        "trainer.max_epochs=20",
         "datamodule.batch_size=8",
         "trainer.enable_progress_bar=false",
         "model.scheduler=null",
