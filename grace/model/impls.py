@@ -133,8 +133,8 @@ class CompiledImpl(FastImpl):
     A query of one state is a few hundred small tensor operations, each costing more in
     dispatch than in arithmetic (docs/training.md, "Inference"); compiled, they run as a few
     fused C++ loops. Shapes are dynamic, so a new assembly reuses the compiled code; compiling
-    costs about half a minute the first time a process scores one state and again the first
-    time it scores many: it pays for a planning session, not for one query. Training runs the
+    costs 10-45 s the first time a process scores one state and again the first time it scores
+    many: it pays for a planning session, not for one query. Training runs the
     fast path as it is (`logits` is FastImpl's).
     """
 

@@ -109,10 +109,8 @@ def run(cfg: DictConfig) -> float:
     compile_s = None
     if cfg.task.compile_backend:
         compile_s, cold, warm = compiled_inference(module, infer, calls, cfg.task.compile_backend)
-        infer_cold["compiled"], infer_warm["compiled"] = (
-            {str(infer_size): cold},
-            {str(infer_size): warm},
-        )
+        infer_cold["compiled"] = {str(infer_size): cold}
+        infer_warm["compiled"] = {str(infer_size): warm}
     planning = {
         impl.name: planner_benchmark(
             make_scorer(module, impl), infer[0].assembly, prefix_passes=int(cfg.task.prefix_passes)
