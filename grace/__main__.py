@@ -10,6 +10,7 @@ and its worker processes (grace/cli/signals.py); the same command with
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
+from typing import NoReturn
 
 import hydra
 from omegaconf import DictConfig
@@ -17,7 +18,7 @@ from omegaconf import DictConfig
 from grace import CONF_DIR
 from grace.cli.preflight import debugging, preflight, run_dir_overrides, user_errors
 from grace.cli.signals import (
-    EXIT_INTERRUPTED,
+    exit_interrupted,
     held_while_loading,
     sigterm_as_interrupt,
     stopped,
@@ -42,9 +43,9 @@ def run(cfg: DictConfig) -> float | None:
         _interrupted(cfg.paths.output_dir)
 
 
-def _interrupted(out: str) -> None:
-    print(f"grace: interrupted; to resume: the same command with paths.output_dir={out}")
-    sys.exit(EXIT_INTERRUPTED)
+def _interrupted(out: str) -> NoReturn:
+    resume = f"grace: interrupted; to resume: the same command with paths.output_dir={out}"
+    exit_interrupted(resume, sys.stdout)
 
 
 def main() -> None:
@@ -68,14 +69,9 @@ def _stops_early(message: str) -> Iterator[None]:
     except Exception:
         if not stopped():
             raise
-        _stopped_early(message)
+        exit_interrupted(message, sys.stderr)
     except KeyboardInterrupt:
-        _stopped_early(message)
-
-
-def _stopped_early(message: str) -> None:
-    print(message, file=sys.stderr)
-    sys.exit(EXIT_INTERRUPTED)
+        exit_interrupted(message, sys.stderr)
 
 
 if __name__ == "__main__":

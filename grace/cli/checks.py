@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 
+from grace.cli.signals import held_while_loading
 from grace.cli.values import check_bounds, check_paths
 from grace.evaluation.protocols import check_fold_sizes, protocol_sizes
 
@@ -59,7 +60,8 @@ def check_config(cfg: DictConfig) -> None:
     """Raise a UserError (one line) for a config that cannot run."""
     check_bounds(cfg)
     check_paths(cfg)
-    source = instantiate(cfg.dataset)
+    with held_while_loading():  # the source's module may import torch (tests' fakes do)
+        source = instantiate(cfg.dataset)
     if hasattr(source, "check_sizes"):  # a generated set: its sizes, before any generation
         source.check_sizes()
     if cfg.task.name not in CROSS_VALIDATED:

@@ -15,9 +15,11 @@ is read as the stop it is (:func:`stopped`), so the run ends with one line eithe
 from __future__ import annotations
 
 import signal
+import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from types import FrameType
+from typing import NoReturn, TextIO
 
 EXIT_INTERRUPTED = 130
 """The shell's code for a run stopped by a signal (128 + SIGINT)."""
@@ -52,6 +54,20 @@ def held_while_loading() -> Iterator[None]:
         yield
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, before)
+
+
+def exit_interrupted(message: str, stream: TextIO) -> NoReturn:
+    """Print `message` and end the process with exit code 130.
+
+    A KeyboardInterrupt that leaves code run from source text (`eval`/`exec`: every namedtuple
+    and dataclass an import defines) is marked unhandled in CPython, which then ends the process
+    by SIGINT at exit whatever code `sys.exit` gave (Python/pythonrun.c `run_eval_code_obj`,
+    Modules/main.c `Py_RunMain`), even after this process caught it. Running source text once
+    more clears that mark: Python has no other way to say the interrupt was handled.
+    """
+    print(message, file=stream)
+    exec("")  # clears CPython's unhandled-interrupt mark (see above)
+    sys.exit(EXIT_INTERRUPTED)
 
 
 def stopped() -> bool:

@@ -73,6 +73,29 @@ def test_sigterm_in_training_is_one_line_and_exit_130(tmp_path, group):
     ], output
 
 
+@pytest.mark.parametrize("ending", ["exit_interrupted(stop, sys.stderr)", "sys.exit(130)"])
+def test_a_stop_caught_in_code_from_source_text_exits_130(tmp_path, ending):
+    """A stop landing in `exec`/`eval`'d text (a namedtuple or dataclass an import defines) is
+    marked unhandled in CPython even once caught: a plain sys.exit(130) then dies by SIGINT;
+    exit_interrupted clears the mark and exits 130."""
+    script = "\n".join([
+        "import signal, sys",
+        "from grace.cli.signals import exit_interrupted, sigterm_as_interrupt",
+        "sigterm_as_interrupt()",
+        "try:",
+        "    exec('import signal; signal.raise_signal(signal.SIGTERM)')",
+        "except KeyboardInterrupt as stop:",
+        "    stop = 'grace: stopped'",
+        f"    {ending}",
+    ])  # fmt: skip
+    (tmp_path / "stop_probe.py").write_text(script)
+    env = {**os.environ, "PYTHONPATH": f"{ROOT}:{tmp_path}"}
+    command = [sys.executable, "-m", "stop_probe"]  # as `python -m grace` runs
+    run = subprocess.run(command, env=env, capture_output=True, text=True)
+    expected = 130 if ending.startswith("exit_interrupted") else -signal.SIGINT
+    assert run.returncode == expected, run.stderr
+
+
 def test_a_stop_while_libraries_load_arrives_after_them(monkeypatch):
     """A SIGTERM inside the block is held (an import interrupted midway can fail as an
     ImportError or leave CPython's interrupt flag set) and raised once the block ends."""
