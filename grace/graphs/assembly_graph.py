@@ -92,10 +92,12 @@ def encode_assembly(
     )
 
 
-def state_flags(states: np.ndarray, n_parts: int) -> torch.Tensor:
-    """Assembled flags (len(states), n_parts) float32 of state bitmasks."""
-    states = np.asarray(states, dtype=np.int64).reshape(-1, 1)
-    return torch.as_tensor((states >> np.arange(n_parts)) & 1, dtype=torch.float32)
+def state_flags(states: np.ndarray | torch.Tensor, n_parts: int) -> torch.Tensor:
+    """Assembled flags (len(states), n_parts) float32 of state bitmasks, on the device of
+    `states`. Torch operations only, so a compiled planning query builds them in its graph."""
+    states = torch.as_tensor(states, dtype=torch.int64).reshape(-1, 1)
+    bits = torch.arange(n_parts, device=states.device)
+    return ((states >> bits) & 1).to(torch.float32)
 
 
 def state_graph(tensors: AssemblyTensors, state: int) -> HeteroData:

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import torch
 import torch.nn.functional as F
 
+from grace.graphs.assembly_graph import state_flags
 from grace.graphs.dense import DenseAssemblies
 from grace.model.grace_pyg import GraceNet, Pool
 
@@ -395,13 +396,23 @@ def state_features(
     return h
 
 
-def first_logits(
-    net: GraceNet, dense: DenseAssemblies, state_assembly: torch.Tensor, flags: torch.Tensor
+def planning_scores(
+    net: GraceNet, dense: DenseAssemblies, states: torch.Tensor, shared: SharedWork
+) -> torch.Tensor:
+    """Next-step scores (T, N) of T states (bitmasks, int64) of the one assembly in `dense`,
+    from its `shared` work: a planner's query from bitmask to score, so that compiled it is one
+    call with no tensor work around it."""
+    flags = state_flags(states, dense.part_mask.shape[1])
+    return net.scores(fast_logits(net, dense, torch.zeros_like(states), flags, shared))
+
+
+def first_planning_scores(
+    net: GraceNet, dense: DenseAssemblies, states: torch.Tensor
 ) -> tuple[SharedWork, torch.Tensor]:
-    """:func:`shared_work` of `dense` and :func:`fast_logits` of its first states from it: a
-    cold query's whole work in one call (one compiled graph instead of two)."""
+    """:func:`shared_work` of `dense` and :func:`planning_scores` of `states` from it: a cold
+    query's whole work in one call (one compiled graph instead of two)."""
     shared = shared_work(net, dense)
-    return shared, fast_logits(net, dense, state_assembly, flags, shared)
+    return shared, planning_scores(net, dense, states, shared)
 
 
 def fast_logits(

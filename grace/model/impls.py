@@ -9,8 +9,8 @@ holds and how the forward pass walks it:
   torch.compile (training runs the fast path as it is).
 
 An implementation gives the training batches (`collate`, handed to the DataModule), the logits of
-a training batch (`logits`) and the logits of many states of one assembly for planning
-(`assembly_logits`, on a :class:`PreparedAssembly` that caches the per-assembly work).
+a training batch (`logits`) and the next-step scores of many states of one assembly for planning
+(`assembly_scores`, on a :class:`PreparedAssembly` that caches the per-assembly work).
 """
 
 from __future__ import annotations
@@ -31,7 +31,8 @@ from grace.graphs.dense import DenseAssemblies
 from grace.model.grace_fast import (
     SharedWork,
     fast_logits,
-    first_logits,
+    first_planning_scores,
+    planning_scores,
     shared_work,
     state_features,
 )
@@ -39,14 +40,15 @@ from grace.model.grace_pyg import GraceNet
 
 
 class PlanningSteps(NamedTuple):
-    """The fast path's two calls for planning: a first query of an assembly (the work its states
-    share, and the queried states' logits), then the logits of further states from that work."""
+    """The fast path's two calls for planning, each from state bitmasks to scores: a first
+    query of an assembly (the work its states share, and the queried states' scores), then the
+    scores of further states from that work."""
 
     first: Callable[..., tuple[SharedWork, torch.Tensor]]
-    logits: Callable[..., torch.Tensor]
+    scores: Callable[..., torch.Tensor]
 
 
-FAST_STEPS = PlanningSteps(first_logits, fast_logits)
+FAST_STEPS = PlanningSteps(first_planning_scores, planning_scores)
 
 
 class PreparedAssembly:
@@ -70,24 +72,22 @@ class PreparedAssembly:
             self._shared = shared_work(net, self.dense)
         return self._shared
 
-    def _states(self, states: np.ndarray) -> tuple[torch.Tensor, torch.Tensor]:
-        """The assembly index (all 0) and the assembled flags of each state."""
-        flags = state_flags(states, self.assembly.n_parts).to(self.device)
-        return torch.zeros(len(flags), dtype=torch.long, device=self.device), flags
-
     def part_features(self, net: GraceNet, states: np.ndarray) -> torch.Tensor:
         """Part features before the head (len(states), n_parts, hidden), on the fast path."""
-        return state_features(net, self.dense, *self._states(states), self.shared(net))
+        flags = state_flags(torch.as_tensor(states, device=self.device), self.assembly.n_parts)
+        index = torch.zeros(len(flags), dtype=torch.long, device=self.device)
+        return state_features(net, self.dense, index, flags, self.shared(net))
 
-    def logits(
+    def scores(
         self, net: GraceNet, states: np.ndarray, steps: PlanningSteps = FAST_STEPS
     ) -> torch.Tensor:
-        """Logits of `states` on the fast path (`steps`: its calls, or compiled copies)."""
-        index, flags = self._states(states)
+        """Next-step scores of `states` on the fast path (`steps`: its calls, or compiled
+        copies)."""
+        bitmasks = torch.as_tensor(states, dtype=torch.int64, device=self.device)
         if self._shared is None:
-            self._shared, logits = steps.first(net, self.dense, index, flags)
-            return logits
-        return steps.logits(net, self.dense, index, flags, self._shared)
+            self._shared, scores = steps.first(net, self.dense, bitmasks)
+            return scores
+        return steps.scores(net, self.dense, bitmasks, self._shared)
 
 
 class FastImpl:
@@ -100,10 +100,10 @@ class FastImpl:
     def logits(self, net: GraceNet, batch: StateBatch) -> torch.Tensor:
         return fast_logits(net, batch.inputs, batch.state_assembly, batch.flags)
 
-    def assembly_logits(
+    def assembly_scores(
         self, net: GraceNet, prepared: PreparedAssembly, states: np.ndarray
     ) -> torch.Tensor:
-        return prepared.logits(net, states)
+        return prepared.scores(net, states)
 
 
 class PygImpl:
@@ -119,12 +119,12 @@ class PygImpl:
         out[batch.mask] = flat
         return out
 
-    def assembly_logits(
+    def assembly_scores(
         self, net: GraceNet, prepared: PreparedAssembly, states: np.ndarray
     ) -> torch.Tensor:
         batch = Batch.from_data_list([state_graph(prepared.tensors, int(s)) for s in states])
         flat = net(batch.to(prepared.device))
-        return flat.view(len(states), prepared.assembly.n_parts, *flat.shape[1:])
+        return net.scores(flat.view(len(states), prepared.assembly.n_parts, *flat.shape[1:]))
 
 
 class CompiledImpl(FastImpl):
@@ -155,10 +155,10 @@ class CompiledImpl(FastImpl):
         """Pickled (a checkpoint's hyper-parameters) without the compiled code."""
         return {"backend": self.backend}
 
-    def assembly_logits(
+    def assembly_scores(
         self, net: GraceNet, prepared: PreparedAssembly, states: np.ndarray
     ) -> torch.Tensor:
-        return prepared.logits(net, states, self._compiled)
+        return prepared.scores(net, states, self._compiled)
 
 
 NetImpl = FastImpl | PygImpl | CompiledImpl

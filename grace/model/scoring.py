@@ -70,9 +70,8 @@ class Scorer:
     @torch.inference_mode()
     def __call__(self, assembly: Assembly, states: np.ndarray) -> np.ndarray:
         states = np.asarray(states, dtype=np.int64).reshape(-1)
-        net = self.module.net
-        logits = self.impl.assembly_logits(net, self._prepared(assembly), states)
-        return net.scores(logits).cpu().numpy().astype(np.float64)
+        scores = self.impl.assembly_scores(self.module.net, self._prepared(assembly), states)
+        return scores.cpu().numpy().astype(np.float64)
 
 
 def make_scorer(module: GraceModule, impl: NetImpl | None = None) -> Scorer:
