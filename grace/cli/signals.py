@@ -44,16 +44,25 @@ def held_while_loading() -> Iterator[None]:
     """Hold SIGINT and SIGTERM while heavy libraries import, then take them.
 
     A KeyboardInterrupt raised inside a C extension's initialisation surfaces as an ImportError
-    ("initialization failed") or, inside Python code the extension runs (mujoco's does), stays
-    flagged in CPython, which then ends the process by SIGINT whatever exit code was given. A
-    held signal is delivered when the block ends, between two imports, as a clean stop.
+    ("initialization failed"), or is swallowed by the extension (mujoco's imports a submodule
+    from C and ignores the failure: the run then went on to its end, exit 0). So while the block
+    runs, a stop is only noted, and it is raised when the block ends, between two imports, as a
+    clean stop. Blocking the signals instead (pthread_sigmask) blocks them in this thread only:
+    the kernel then hands them to another thread (torch's, once it is imported) and CPython
+    still runs the handler here.
     """
-    stops = {signal.SIGINT, signal.SIGTERM}
-    before = signal.pthread_sigmask(signal.SIG_BLOCK, stops)
+    stops = (signal.SIGINT, signal.SIGTERM)
+    held: list[int] = []
+    before = {stop: signal.getsignal(stop) for stop in stops}
+    for stop in stops:
+        signal.signal(stop, lambda signum, frame: held.append(signum))
     try:
         yield
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, before)
+        for stop, handler in before.items():
+            signal.signal(stop, handler)
+        for signum in held[:1]:  # one stop is enough
+            signal.raise_signal(signum)
 
 
 def exit_interrupted(message: str, stream: TextIO) -> NoReturn:
