@@ -78,9 +78,8 @@ def test_a_run_killed_at_random_points_resumes_to_the_same_results(tmp_path):
             run.send_signal(signal.SIGTERM)
             code = run.wait(timeout=120)
         landed.append((round(time.time() - started, 1), code, _epochs(tmp_path / "killed")))
-        if code == 0:
-            break  # the run ended before its kill
-        assert not (tmp_path / "killed" / "results.json").exists()
+        if code == 0 or (tmp_path / "killed" / "results.json").exists():
+            break  # the run ended before its kill, or the kill came after its last write
     print(f"uninterrupted run {whole_s:.0f} s; kills (s after start, exit code, epoch each fold "
           f"resumes at): {landed}")  # fmt: skip
     subprocess.run(_command(tmp_path, "killed"), cwd=tmp_path, env=ENV, check=True)
