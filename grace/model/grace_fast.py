@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
 import torch
 import torch.nn.functional as F
 
@@ -396,14 +397,22 @@ def state_features(
     return h
 
 
+def one_assembly_states(
+    dense: DenseAssemblies, states: torch.Tensor | np.ndarray
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """The assembly index (all 0) and the assembled flags of `states` (bitmasks, 1-D) of the one
+    assembly in `dense`, on its device: the state inputs of :func:`fast_logits`."""
+    states = torch.as_tensor(states, dtype=torch.int64, device=dense.part_mask.device)
+    return torch.zeros_like(states), state_flags(states, dense.part_mask.shape[1])
+
+
 def planning_scores(
     net: GraceNet, dense: DenseAssemblies, states: torch.Tensor, shared: SharedWork
 ) -> torch.Tensor:
     """Next-step scores (T, N) of T states (bitmasks, int64) of the one assembly in `dense`,
     from its `shared` work: a planner's query from bitmask to score, so that compiled it is one
     call with no tensor work around it."""
-    flags = state_flags(states, dense.part_mask.shape[1])
-    return net.scores(fast_logits(net, dense, torch.zeros_like(states), flags, shared))
+    return net.scores(fast_logits(net, dense, *one_assembly_states(dense, states), shared))
 
 
 def first_planning_scores(

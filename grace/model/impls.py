@@ -25,13 +25,14 @@ from lightning.fabric.utilities.apply_func import move_data_to_device
 from torch_geometric.data import Batch
 
 from grace.domain.assembly import Assembly
-from grace.graphs.assembly_graph import AssemblyTensors, state_flags, state_graph
+from grace.graphs.assembly_graph import AssemblyTensors, state_graph
 from grace.graphs.datamodule import StateBatch, collate_dense, collate_graphs
 from grace.graphs.dense import DenseAssemblies
 from grace.model.grace_fast import (
     SharedWork,
     fast_logits,
     first_planning_scores,
+    one_assembly_states,
     planning_scores,
     shared_work,
     state_features,
@@ -74,9 +75,8 @@ class PreparedAssembly:
 
     def part_features(self, net: GraceNet, states: np.ndarray) -> torch.Tensor:
         """Part features before the head (len(states), n_parts, hidden), on the fast path."""
-        flags = state_flags(torch.as_tensor(states, device=self.device), self.assembly.n_parts)
-        index = torch.zeros(len(flags), dtype=torch.long, device=self.device)
-        return state_features(net, self.dense, index, flags, self.shared(net))
+        inputs = one_assembly_states(self.dense, states)
+        return state_features(net, self.dense, *inputs, self.shared(net))
 
     def scores(
         self, net: GraceNet, states: np.ndarray, steps: PlanningSteps = FAST_STEPS

@@ -10,9 +10,8 @@ from grace.cli.fit import kept_module, train_module
 from grace.errors import UserError
 from grace.evaluation.metrics import step_auc
 from grace.evaluation.step_states import state_scores
-from grace.graphs.assembly_graph import state_flags
 from grace.model.checkpoints import load_model
-from grace.model.grace_fast import fast_logits
+from grace.model.grace_fast import fast_logits, one_assembly_states
 from grace.model.grace_pyg import Score
 from grace.model.loss import grace_loss
 from grace.model.module import GraceModule
@@ -160,9 +159,8 @@ def test_a_kept_checkpoint_plans_again_under_another_score(cfg_factory, samples,
     for name, weights in module.state_dict().items():
         torch.testing.assert_close(again.state_dict()[name], weights)
     sample = samples[1]
-    states, dense = sample.truth.states, make_scorer(module)._prepared(sample.assembly).dense
-    index = torch.zeros(len(states), dtype=torch.long)
-    logits = fast_logits(module.net, dense, index, state_flags(states, sample.size))
+    dense = make_scorer(module)._prepared(sample.assembly).dense
+    logits = fast_logits(module.net, dense, *one_assembly_states(dense, sample.truth.states))
     np.testing.assert_allclose(
         make_scorer(again)(sample.assembly, sample.truth.states),
         torch.sigmoid(logits).prod(dim=-1).sqrt().detach().numpy(),

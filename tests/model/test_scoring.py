@@ -6,9 +6,8 @@ import torch
 from hydra.utils import instantiate
 
 from grace.evaluation.step_states import dead_end_steps, label_matrix
-from grace.graphs.assembly_graph import state_flags
 from grace.graphs.encoding import GraphEncoding
-from grace.model.grace_fast import fast_logits
+from grace.model.grace_fast import fast_logits, one_assembly_states
 from grace.model.grace_pyg import NetConfig, Score
 from grace.model.impls import CompiledImpl, FastImpl, PygImpl
 from grace.model.module import GraceModule
@@ -94,8 +93,8 @@ def test_the_planner_takes_no_dead_end_step_its_next_step_output_keeps_below_lam
             continue
         steps = label_matrix(masks, sample.size)
         with torch.no_grad():
-            dense, index = scorer._prepared(sample.assembly).dense, torch.zeros(len(states))
-            logits = fast_logits(m.net, dense, index.long(), state_flags(states, sample.size))
+            dense = scorer._prepared(sample.assembly).dense
+            logits = fast_logits(m.net, dense, *one_assembly_states(dense, states))
         step = torch.sigmoid(logits[..., 0]).numpy()
         excess.append((scorer(sample.assembly, states) - step)[steps])
         logits[..., 0] = torch.logit(torch.tensor(0.4))
