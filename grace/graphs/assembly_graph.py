@@ -48,6 +48,19 @@ class AssemblyTensors:
     def n_surfaces(self) -> int:
         return self.surface_x.shape[0]
 
+    def to(self, dtype: torch.dtype) -> AssemblyTensors:
+        """The same inputs with every floating tensor in `dtype` (a network cast to float64
+        scores in float64)."""
+        if dtype == self.part_static.dtype:
+            return self
+        return AssemblyTensors(
+            part_static=self.part_static.to(dtype),
+            surface_x=self.surface_x.to(dtype),
+            relation=self.relation.to(dtype),
+            surface_part=self.surface_part,
+            pair_geometry=self.pair_geometry.to(dtype),
+        )
+
 
 def scaled_relations(
     assembly: Assembly, distance_scale: float, surfaces: list[Surface] | None = None
@@ -92,19 +105,22 @@ def encode_assembly(
     )
 
 
-def state_flags(states: np.ndarray | torch.Tensor, n_parts: int) -> torch.Tensor:
-    """Assembled flags (len(states), n_parts) float32 of state bitmasks, on the device of
-    `states`. Torch operations only, so a compiled planning query builds them in its graph."""
+def state_flags(
+    states: np.ndarray | torch.Tensor, n_parts: int, dtype: torch.dtype = torch.float32
+) -> torch.Tensor:
+    """Assembled flags (len(states), n_parts) of state bitmasks, on the device of `states`, in
+    `dtype` (the network's inputs'). Torch operations only, so a compiled planning query builds
+    them in its graph."""
     states = torch.as_tensor(states, dtype=torch.int64).reshape(-1, 1)
     bits = torch.arange(n_parts, device=states.device)
-    return ((states >> bits) & 1).to(torch.float32)
+    return ((states >> bits) & 1).to(dtype)
 
 
 def state_graph(tensors: AssemblyTensors, state: int) -> HeteroData:
     """The Assembly Graph of `tensors` in `state`, as heterogeneous PyG data."""
     n, s = tensors.n_parts, tensors.n_surfaces
     data = HeteroData()
-    flags = state_flags(np.array([state]), n)[0]
+    flags = state_flags(np.array([state]), n, tensors.part_static.dtype)[0]
     data["part"].x = torch.cat([flags[:, None], tensors.part_static], dim=1)
     data["surface"].x = tensors.surface_x
     src, dst = torch.meshgrid(torch.arange(s), torch.arange(s), indexing="xy")

@@ -403,7 +403,8 @@ def one_assembly_states(
     """The assembly index (all 0) and the assembled flags of `states` (bitmasks, 1-D) of the one
     assembly in `dense`, on its device: the state inputs of :func:`fast_logits`."""
     states = torch.as_tensor(states, dtype=torch.int64, device=dense.part_mask.device)
-    return torch.zeros_like(states), state_flags(states, dense.part_mask.shape[1])
+    flags = state_flags(states, dense.part_mask.shape[1], dense.surface_x.dtype)
+    return torch.zeros_like(states), flags
 
 
 def planning_scores(

@@ -55,7 +55,7 @@ class Scorer:
         if hit is not None and hit.assembly is assembly:
             self._cache.move_to_end(id(assembly))
             return hit
-        tensors = evaluation_tensors(self.module, assembly)
+        tensors = evaluation_tensors(self.module, assembly).to(self.module.dtype)
         prepared = PreparedAssembly(assembly, tensors, self.module.device)
         self._cache[id(assembly)] = prepared
         if len(self._cache) > self.cache_size:
