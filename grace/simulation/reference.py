@@ -200,14 +200,9 @@ def compare(
     }
 
 
-def main() -> None:
-    from hydra import compose, initialize_config_dir
-    from hydra.errors import HydraException
-    from hydra.utils import instantiate
-
-    from grace import CONF_DIR
-    from grace.simulation.cell_config import register
-
+def command_line() -> argparse.ArgumentParser:
+    """The arguments of `main`; read them with `parse_intermixed_args` (options may stand
+    between the positional arguments)."""
     parser = argparse.ArgumentParser(
         prog="python -m grace.simulation.reference",
         description="Compare the labels of generated frames with a reference (docs/world.md).",
@@ -221,7 +216,19 @@ def main() -> None:
     )
     parser.add_argument("--against", choices=sorted(REFERENCES), default="reference")
     parser.add_argument("--seed", type=int, default=0, help="the data seed (dataset.seed)")
-    args = parser.parse_args()
+    return parser
+
+
+def main() -> None:
+    from hydra import compose, initialize_config_dir
+    from hydra.errors import HydraException
+    from hydra.utils import instantiate
+
+    from grace import CONF_DIR
+    from grace.simulation.cell_config import register
+
+    parser = command_line()
+    args = parser.parse_intermixed_args()
     sizes = [int(s) for s in args.sizes.split(",")]
     register()
     try:
