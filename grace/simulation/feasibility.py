@@ -1,7 +1,8 @@
 """Which part may be placed in which state, the ground truth that follows, and why (docs/world.md).
 
 Placing part p when the set S (a bitmask) is placed is feasible iff
-- fixation holds: the first part is a profile (clamped); a later profile touches a part of S; a
+- fixation holds: the first part is a profile (clamped or not: one the fixture designer found no
+  spot for may go first too, docs/world.md, "Rules"); a later profile touches a part of S; a
   bracket needs one of the two profiles it joins in S (it is fastened to it), and
 - the cell has an option (arm, IK branch, grasp, motion) that is usable (reach: IK within the
   limits along the motion; arm links: clear of table and itself; with the clamps rule, no robot
@@ -57,7 +58,8 @@ class Cell(Protocol):
 
 @dataclass(frozen=True)
 class Fixation:
-    """Fixation rule per part: profiles need a touching placed part, brackets one profile."""
+    """Fixation rule per part: profiles need a touching placed part (the first one none, with
+    or without a clamp), brackets one profile."""
 
     touch: np.ndarray
     """Per part, bitmask of the parts it touches (int64)."""
@@ -320,15 +322,46 @@ def replay(
     Each step asks the cell directly with only the already placed parts in the scene, so a
     disagreement with `label` exposes a wrong cache.
     """
-    fixation = Fixation.of(assembly, touch)
-    switches = {r: r in rules for r in RULES}
+    step_check = uncached_check(assembly, cell, motions, touch, rules)
     placed = 0
     for step, part in enumerate(order):
-        fixed = not switches["fixation"] or bool(fixation.holds(np.int64(placed), part))
-        ok = fixed and any(
-            cell.check_placement(assembly, part, placed, m, switches) for m in motions[part]
-        )
-        if not ok:
+        if not step_check(placed, part):
             return step
         placed |= 1 << part
     return None
+
+
+def replayed_truth(
+    assembly: Assembly,
+    cell: Cell,
+    motions: list[list[Motion]],
+    touch: np.ndarray,
+    rules: Collection[str] = RULES,
+) -> GroundTruth:
+    """The ground truth `replay` implies: every reachable state's every part asked the uncached
+    check once, as replaying all N! orders would (their steps share prefixes). It equals
+    `label`'s truth iff every listed order replays and no other does."""
+    return GroundTruth.explore(
+        assembly.n_parts, uncached_check(assembly, cell, motions, touch, rules)
+    )
+
+
+def uncached_check(
+    assembly: Assembly,
+    cell: Cell,
+    motions: list[list[Motion]],
+    touch: np.ndarray,
+    rules: Collection[str] = RULES,
+) -> Callable[[int, int], bool]:
+    """`can_place(placed, part)` asking the cell directly: fixation, then some motion that
+    `Cell.check_placement` lets through with only the parts of `placed` in the scene."""
+    fixation = Fixation.of(assembly, touch)
+    switches = {r: r in rules for r in RULES}
+
+    def can_place(placed: int, part: int) -> bool:
+        fixed = not switches["fixation"] or bool(fixation.holds(np.int64(placed), part))
+        return fixed and any(
+            cell.check_placement(assembly, part, placed, m, switches) for m in motions[part]
+        )
+
+    return can_place

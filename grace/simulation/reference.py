@@ -10,11 +10,15 @@ direction or beyond the end of every groove it enters), judges the joint rule co
 connector from the rule's statement (`joint_allows`), and asks the uncached MuJoCo check
 (`RobotCell.check_placement`) for everything else. Its ground truth must equal the
 enumerator's; `python -m grace.simulation.reference 5,6,7 20` compares them on generated
-assemblies (slow: seconds per assembly).
+assemblies (slow: seconds per assembly). With `--against replay` the labels are compared with
+`Simulator.replay` instead (the enumerator's own motions, every step of every order through the
+uncached check); `--seed` picks the data seed, and overrides of the simulator group another
+cell (`simulator/cell=iiwa14_dual_open_bar`).
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 from collections.abc import Sequence
@@ -174,41 +178,79 @@ def brute_force_truth(simulator: Simulator, assembly: Assembly) -> GroundTruth:
     return GroundTruth.explore(assembly.n_parts, can_place)
 
 
-def compare(simulator: Simulator, assembly: Assembly) -> dict[str, int | bool]:
-    """The enumerator's and the reference's order counts for one assembly, and if they agree."""
+REFERENCES = {
+    "reference": brute_force_truth,
+    "replay": Simulator.replayed_truth,
+}
+"""What the labels are compared with: this module's brute force, or `Simulator.replay` (the
+enumerator's motions, every step through the uncached check)."""
+
+
+def compare(
+    simulator: Simulator, assembly: Assembly, against: str = "reference"
+) -> dict[str, int | bool]:
+    """The enumerator's and a reference's (`REFERENCES`) order counts for one assembly, and
+    whether their reachable-state DAGs agree."""
     truth = simulator.label(assembly).truth
-    reference = brute_force_truth(simulator, assembly)
+    reference = REFERENCES[against](simulator, assembly)
     return {
         "orders": truth.n_orders(),
-        "reference_orders": reference.n_orders(),
+        f"{against}_orders": reference.n_orders(),
         "agree": truth == reference,
     }
 
 
+def command_line() -> argparse.ArgumentParser:
+    """The arguments of `main`; read them with `parse_intermixed_args` (options may stand
+    between the positional arguments)."""
+    parser = argparse.ArgumentParser(
+        prog="python -m grace.simulation.reference",
+        description="Compare the labels of generated frames with a reference (docs/world.md).",
+    )
+    parser.add_argument("sizes", nargs="?", default="5", help="comma-separated sizes")
+    parser.add_argument("count", nargs="?", type=int, default=5, help="frames per size")
+    parser.add_argument(
+        "overrides",
+        nargs="*",
+        help="of the simulator group, e.g. simulator/cell=iiwa14_dual_open_bar",
+    )
+    parser.add_argument("--against", choices=sorted(REFERENCES), default="reference")
+    parser.add_argument("--seed", type=int, default=0, help="the data seed (dataset.seed)")
+    return parser
+
+
 def main() -> None:
     from hydra import compose, initialize_config_dir
+    from hydra.errors import HydraException
     from hydra.utils import instantiate
 
     from grace import CONF_DIR
     from grace.simulation.cell_config import register
 
-    sizes = [int(s) for s in (sys.argv[1] if len(sys.argv) > 1 else "5").split(",")]
-    count = int(sys.argv[2]) if len(sys.argv) > 2 else 5
+    parser = command_line()
+    args = parser.parse_intermixed_args()
+    sizes = [int(s) for s in args.sizes.split(",")]
     register()
-    with initialize_config_dir(config_dir=str(CONF_DIR), version_base=None):
-        simulator = instantiate(compose(config_name="simulator/dual_arm").simulator)
+    try:
+        with initialize_config_dir(config_dir=str(CONF_DIR), version_base=None):
+            cfg = compose(config_name="simulator/dual_arm", overrides=args.overrides)
+    except HydraException as error:
+        fix = "use an option or a key of grace/conf/simulator/ (simulator/cell=<name>)"
+        parser.error(f"{str(error).splitlines()[0]}; fix: {fix}")
+    simulator = instantiate(cfg.simulator)
     disagree = 0
     for size in sizes:
-        for index in range(count):
-            rng = np.random.default_rng(np.random.SeedSequence([0, size, index]))
+        for index in range(args.count):
+            rng = np.random.default_rng(np.random.SeedSequence([args.seed, size, index]))
             row = {
                 "size": size,
                 "index": index,
-                **compare(simulator, simulator.generate(size, rng)),
+                **compare(simulator, simulator.generate(size, rng), args.against),
             }
             disagree += not row["agree"]
             print(json.dumps(row), flush=True)
-    print(json.dumps({"assemblies": len(sizes) * count, "disagreements": disagree}))
+    summary = {"assemblies": len(sizes) * args.count, "disagreements": disagree}
+    print(json.dumps({**summary, "against": args.against, "overrides": args.overrides}))
     sys.exit(1 if disagree else 0)
 
 

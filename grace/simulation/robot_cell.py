@@ -21,8 +21,9 @@ The fingers, palm and held part are world-aligned boxes moving along world axes,
 each sweeps along a motion segment is exactly the box spanning its start and end copies; their
 contacts are box overlaps. The arm links are capsules in arbitrary poses: a box test on their
 bounds picks the samples where they may touch something, and MuJoCo's collision detection
-decides those. `options` puts every part of the assembly into the scene at once and attributes
-each contact to its owner, so one query per option gives the blockers for every state: the
+decides those. `options` puts every part of the assembly and every clamp solid, whenever it
+stands (bases, closed and open solids alike), into the scene at once and attributes each contact
+to its owner and kind, so one query per option gives the blockers for every state: the
 option is free in state S iff it hits no post, `blockers & S == 0` for the part and clamp
 masks, and `needs & ~S == 0` for the open ones.
 Motions share segments (the same path making other joints; the lower stretch of a descent
@@ -181,6 +182,12 @@ class Scene:
         standing = (placed & (column == _CLAMP)) | (column == _POST) | (~placed & (column == _OPEN))
         return (placed & (column == _PART)) | (clamps & standing)
 
+    def everything(self) -> np.ndarray:
+        """Every box, whenever it stands (parts, clamp bases, closed and open clamp solids): the
+        cached queries put them all in the scene at once and attribute each contact to its
+        owner and kind, so no state's obstacles are missing for any robot body."""
+        return np.ones(len(self.owner), dtype=bool)
+
     def boxes_of(self, parts: list[int], clamps: bool = True) -> np.ndarray:
         """World boxes (k×2×3, mm) of `parts` and, if asked, their clamps as they stand once
         the parts are placed (closed)."""
@@ -292,7 +299,7 @@ class RobotCell:
             column += [KINDS.index(_KIND_OF_STATE[CLAMP_STATES[w]]) for w in clamps[i].when]
         arr = np.array(boxes).reshape(-1, 2, 3)
         scene = Scene(assembly, clamps, arr[:, 0], arr[:, 1], np.array(owner), np.array(column))
-        self._load(scene, scene.present(list(range(assembly.n_parts))))
+        self._load(scene, scene.everything())
         return scene
 
     def _load(self, scene: Scene, keep: np.ndarray) -> None:
@@ -569,7 +576,7 @@ class RobotCell:
             self.model.geom_contype[self._tool] = mjcf.TOOL_BIT
             self._place(self._tool, np.zeros((0, 2, 3)), self._tool_parked)
             self.data.qpos[:] = 0.0
-            self._load(scene, scene.present(list(range(assembly.n_parts))))
+            self._load(scene, scene.everything())
 
     def _tool_clear(self, motion: Motion) -> bool:
         for offset in tcp_samples((0.0, 0.0, 0.0), motion, REFERENCE_STEP_MM):

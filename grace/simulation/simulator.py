@@ -16,6 +16,7 @@ import numpy as np
 
 from grace.domain.assembly import Assembly
 from grace.domain.motion import Motion
+from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
 from grace.errors import UserError
 from grace.simulation import feasibility
@@ -101,6 +102,13 @@ class Simulator:
         touch = touching(assembly, self.tolerance)
         active = self.rules if rules is None else tuple(rules)
         return feasibility.replay(assembly, order, self.cell, self.motions(assembly), touch, active)
+
+    def replayed_truth(self, assembly: Assembly) -> GroundTruth:
+        """The orders `replay` lets through, every one of the N! (`feasibility.replayed_truth`):
+        equal to `label(assembly).truth` when the cached labels are right."""
+        touch = touching(assembly, self.tolerance)
+        motions = self.motions(assembly)
+        return feasibility.replayed_truth(assembly, self.cell, motions, touch, self.rules)
 
     def explain(self, assembly: Assembly, placed: int, part: int) -> Verdict:
         """Why `part` can or cannot be placed once the parts of bitmask `placed` are

@@ -201,3 +201,15 @@ def test_bracket_grip_decides(real_sim, world):
     free = real_sim.label(assembly)
     assert "fingers" in free.info["decisive_rules"]
     assert all(o.index(2) == 1 for o in free.truth.orders())
+
+
+def test_a_profile_without_a_clamp_may_go_first(real_sim, world):
+    """The middle stem of a tight comb (13 and 16 mm to its neighbours) has no spot for a clamp
+    on either side; fixation lets it go first all the same, the simplification docs/world.md
+    states ("Rules"): nothing would hold it while the host slides onto it."""
+    p = world.profile
+    comb = world.build(p(300, 21, -20), p(200, 74, 30), p(300, 130, -20), p(300, 0, 150, True))
+    kinds = [c.kind for c in real_sim.cell.scene(comb).clamps]
+    assert kinds == ["toggle", "none", "toggle", "toggle"]
+    firsts = {order[0] for order in real_sim.label(comb).truth.orders()}
+    assert firsts == {0, 1, 2, 3}

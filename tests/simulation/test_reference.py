@@ -5,9 +5,14 @@ import numpy as np
 import pytest
 from hydra.utils import instantiate
 
+from grace.data.store import assembly_rng
 from grace.simulation.clearance import part_boxes
 from grace.simulation.joints import connectors, end_joints
-from grace.simulation.reference import brute_force_truth, joint_allows
+from grace.simulation.reference import brute_force_truth, command_line, compare, joint_allows
+
+OPEN_BAR_CHANGED = ((5, 2), (5, 94), (6, 1), (6, 32), (6, 67), (6, 97))
+"""Data seed 11: the open-bar cell's A5 / A6 frames (of 100 each) whose labels changed once the
+arm links met open clamp solids: 30 orders fewer, three frames infeasible."""
 
 
 def generated(sim, size: int, index: int):
@@ -30,6 +35,26 @@ def test_the_enumerator_agrees_with_the_reference_on_120_generated_frames(real_s
             assembly = generated(real_sim, size, index)
             truth = real_sim.label(assembly).truth
             assert brute_force_truth(real_sim, assembly) == truth, (size, index)
+
+
+@pytest.mark.slow
+def test_the_open_bar_labels_agree_with_the_uncached_replay(world):
+    """Every order of the frames that open bars in the arm's way changed: the labels list it iff
+    `Simulator.replay` lets it through. `python -m grace.simulation.reference 5,6,7 40 --seed 11
+    --against replay simulator/cell=iiwa14_dual_open_bar` checks 120 frames."""
+    sim = instantiate(world.config("dual_arm", "simulator/cell=iiwa14_dual_open_bar"))
+    for size, index in OPEN_BAR_CHANGED:
+        row = compare(sim, sim.generate(size, assembly_rng(11, size, index)), "replay")
+        assert row["agree"], (size, index, row)
+
+
+def test_the_command_line_takes_options_between_its_arguments():
+    read = command_line().parse_intermixed_args
+    args = read(["5,6,7", "40", "--seed", "11", "--against", "replay", "simulator/cell=x"])
+    assert (args.sizes, args.count, args.seed, args.against) == ("5,6,7", 40, 11, "replay")
+    assert args.overrides == ["simulator/cell=x"]
+    default = read(["5,6,7", "40"])
+    assert (default.seed, default.against, default.overrides) == (0, "reference", [])
 
 
 def test_the_reference_joint_rule_on_the_last_rung(world):

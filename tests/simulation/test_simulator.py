@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from hydra.utils import instantiate
 
+from grace.data.store import assembly_rng
 from grace.errors import UserError
 from grace.simulation.cell_config import MECHANISMS, RULES
 from grace.simulation.simulator import Simulator
@@ -40,6 +41,11 @@ ROBOT = 8
 SIDE_SLIDE = 100
 """An A5 seed whose orders the side slide along a groove changes (7 orders, 4 without it), with
 joints, held part and clamps deciding."""
+
+OPEN_BAR_CASE = (11, 6, 1)
+"""Data seed 11, A6 #1 in the open-bar cell: 4 orders while the arm links were not tested
+against open bars, none now (5, 3, 4, 0, 1, 2 fails at its last step: the wrist meets part 2's
+open bar)."""
 
 
 def a5(sim: Simulator, index: int):
@@ -94,6 +100,20 @@ def test_every_listed_order_replays_in_mujoco_and_no_other_does(real_sim, index)
     listed = set(sample.truth.orders())
     for order in itertools.permutations(range(5)):
         assert (sim.replay(sample.assembly, order) is None) == (order in listed), order
+
+
+def test_an_open_bar_stops_the_arm_links_too(world):
+    """Open clamp solids stand for the arm links as for the tool: labels, the uncached replay
+    and the verdict agree that the wrist cannot pass part 2's open bar."""
+    sim = instantiate(world.config("dual_arm", "simulator/cell=iiwa14_dual_open_bar"))
+    seed, size, index = OPEN_BAR_CASE
+    assembly = sim.generate(size, assembly_rng(seed, size, index))
+    assert not sim.label(assembly).truth.feasible
+    order = (5, 3, 4, 0, 1, 2)
+    assert sim.replay(assembly, order) == 5
+    verdict = sim.explain(assembly, sum(1 << p for p in order[:5]), 2)
+    hits = {(b.rule, b.body, b.part, b.obstacle) for c in verdict.candidates for b in c.blocks}
+    assert ("clamps", "arm link 4 (wrist)", 2, "clamp") in hits
 
 
 @pytest.mark.parametrize(("index", "bodies"), [
