@@ -16,7 +16,8 @@ from the i-th; any later unsharded run (or :meth:`GeneratedSource.load`) finds t
 gaps. Every run checks each chunk against its manifest first: an empty, short, truncated or
 altered shard or manifest is reported in one line naming the file, moved to `<key>/corrupt/` and
 generated again. Processes generating one data set at once share its chunks through claim files
-(grace/data/claims.py) and wait for each other's. docs/operations.md, "Cache integrity".
+(grace/data/claims.py) and wait for each other's, naming in the log each claim waited for.
+docs/operations.md, "Cache integrity".
 """
 
 from __future__ import annotations
@@ -278,6 +279,7 @@ def _run(
     pending = sorted(pending, key=lambda c: -c.size)
     total = sum(c.count for c in pending)
     generated, others = 0, 0
+    announced: set[Chunk] = set()
     pool = None
     if workers > 1 and len(pending) > 1:
         ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
@@ -298,7 +300,7 @@ def _run(
                 bar.update(sum(n or 0 for _, n in results))
             generated += sum(n or 0 for _, n in results)
             busy = [c for c, n in results if n is None]
-            pending = _wait_for_others(busy, root)
+            pending = _wait_for_others(busy, root, announced)
             others += sum(c.count for c in busy if c not in pending)
             bar.update(sum(c.count for c in busy if c not in pending))
     if others:
@@ -306,13 +308,19 @@ def _run(
     return generated
 
 
-def _wait_for_others(busy: list[Chunk], root: Path) -> list[Chunk]:
+def _wait_for_others(busy: list[Chunk], root: Path, announced: set[Chunk]) -> list[Chunk]:
     """Wait until a chunk that other processes claimed is done or free to take over; return
-    those not done."""
+    those not done. Each chunk waited for is named once in the log (`announced`), with who holds
+    it and when it is taken over."""
     while busy:
         left = [c for c in busy if not c.manifest_path(root).exists()]
-        if len(left) < len(busy) or not all(claims.holder_alive(c.claim_path(root)) for c in left):
+        holders = {c: claims.live_holder(c.claim_path(root)) for c in left}
+        if len(left) < len(busy) or not all(holders.values()):
             return left
+        for chunk, holder in holders.items():
+            if chunk not in announced:
+                log.info("waiting for %s: %s", chunk.claim_path(root), holder)
+                announced.add(chunk)
         time.sleep(CLAIM_POLL_SECONDS)
     return busy
 

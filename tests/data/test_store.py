@@ -1,6 +1,7 @@
 import json
 import logging
 import multiprocessing as mp
+import os
 import socket
 import subprocess
 import sys
@@ -272,3 +273,26 @@ def test_a_claim_of_a_dead_process_is_taken_over_and_a_live_one_respected(fake_c
     assert not waiting.done()  # waits for the live owner's chunk
     second.claim_path(root).unlink()  # the owner gave up without finishing
     assert waiting.result(timeout=30).generated == second.count
+
+
+@pytest.mark.parametrize("idle", [60.0, 0.0], ids=["left a minute ago", "touched just now"])
+def test_an_empty_claim_left_by_a_stopped_run_is_taken_over(fake_cfg, caplog, monkeypatch, idle):
+    """A run stopped between creating a claim and writing its owner leaves it empty; `touch`
+    makes one just now. The rerun takes the first over at once; it names the second and how long
+    it waits (claims.WRITE_SECONDS, shortened here), then takes it over."""
+    monkeypatch.setattr(claims, "WRITE_SECONDS", 0.5, raising=False)
+    cfg = fake_cfg()
+    generation = generate(cfg)
+    chunk = generation.chunks[3]
+    for path in (chunk.path(generation.path), chunk.manifest_path(generation.path)):
+        path.unlink()
+    claim = chunk.claim_path(generation.path)
+    claim.touch()
+    os.utime(claim, (time.time() - idle,) * 2)
+    with caplog.at_level(logging.INFO, logger="grace.data.store"):
+        rerun = ThreadPoolExecutor(1).submit(generate, cfg)
+        assert rerun.result(timeout=30).generated == chunk.count
+    waits = [r.getMessage() for r in caplog.records if r.getMessage().startswith("waiting")]
+    named = f"waiting for {claim}: names no owner (empty); taken over once 0.5 s old"
+    assert waits == ([named] if idle == 0 else [])
+    assert not list(generation.path.rglob("*.claim*"))
