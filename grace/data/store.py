@@ -15,9 +15,10 @@ depend on chunking, sharding or the number of workers or processes. A rerun skip
 from the i-th; any later unsharded run (or :meth:`GeneratedSource.load`) finds them and only fills
 gaps. Every run checks each chunk against its manifest first: an empty, short, truncated or
 altered shard or manifest is reported in one line naming the file, moved to `<key>/corrupt/` and
-generated again. Processes generating one data set at once share its chunks through claim files
-(grace/data/claims.py) and wait for each other's, naming in the log each claim waited for.
-docs/operations.md, "Cache integrity".
+generated again, as is a chunk whose records, read, are not those of the chunk although they
+match the manifest's checksum (both rewritten). Processes generating one data set at once share
+its chunks through claim files (grace/data/claims.py) and wait for each other's, naming in the log
+each claim waited for. docs/operations.md, "Cache integrity".
 """
 
 from __future__ import annotations
@@ -202,6 +203,8 @@ def _read_manifest(chunk: Chunk, root: Path) -> dict[str, Any]:
         node = json.loads(path.read_bytes())
         info = ShardInfo.from_json(node["shard"])
         seconds = [float(t) for t in node["seconds"]]
+    except OSError as e:
+        raise ShardError(f"{path}: manifest unreadable ({e.strerror})") from None
     except (ValueError, KeyError, TypeError) as e:
         raise ShardError(f"{path}: manifest unreadable ({type(e).__name__}: {e})") from None
     if info.records != chunk.count or len(seconds) != chunk.count:
@@ -218,6 +221,19 @@ def _check_chunk(chunk: Chunk, root: Path) -> bool:
         return False
     check_shard(chunk.path(root), _read_manifest(chunk, root)["shard"])
     return True
+
+
+def read_chunk(chunk: Chunk, root: Path) -> list[LabelledAssembly]:
+    """The assemblies of `chunk`, checked against its manifest (checksum, record count) and
+    the chunk (their size); ShardError naming the file if they differ."""
+    path = chunk.path(root)
+    samples = read_shard(path, _read_manifest(chunk, root)["shard"])
+    sizes = sorted({s.size for s in samples} - {chunk.size})
+    if sizes:
+        raise ShardError(
+            f"{path}: shard holds assemblies of size {sizes}, its chunk is A{chunk.size}"
+        )
+    return samples
 
 
 def _set_aside(chunk: Chunk, root: Path, error: ShardError) -> None:
@@ -417,22 +433,34 @@ class GeneratedSource:
 
     def load(self) -> list[LabelledAssembly]:
         """Generate whatever is missing (all shards' share) and load the data set."""
-        generation = self.generate(shard=0, num_shards=1)
-        return read_chunks(generation.path, generation.chunks)
+        return self.read(self.generate(shard=0, num_shards=1))
+
+    def read(self, generation: Generation) -> list[LabelledAssembly]:
+        """The assemblies of a complete `generation` in order (size ascending, then index). A
+        chunk that matches its manifest's checksum but does not hold the chunk's records (shard
+        and checksum both rewritten: only reading finds it) is set aside and generated again,
+        like a chunk that fails its checksum."""
+        root = generation.path
+        read, damaged = {}, []
+        for chunk in generation.chunks:
+            try:
+                read[chunk] = read_chunk(chunk, root)
+            except ShardError as e:
+                _set_aside(chunk, root, e)
+                damaged.append(chunk)
+        if damaged:
+            self.generate(shard=0, num_shards=1)
+            read.update((chunk, _read_or_refuse(chunk, root)) for chunk in damaged)
+        return [sample for chunk in generation.chunks for sample in read[chunk]]
 
 
-def read_chunks(root: Path, chunks: list[Chunk]) -> list[LabelledAssembly]:
-    """The assemblies of `chunks` in order (size ascending, then index), each shard checked
-    against its manifest once more (a UserError naming the file if it changed since)."""
-    samples = []
-    for chunk in chunks:
-        try:
-            samples += read_shard(chunk.path(root), _read_manifest(chunk, root)["shard"])
-        except ShardError as e:
-            raise UserError(
-                f"{e}; fix: rerun, which moves it aside and generates it again"
-            ) from None
-    return samples
+def _read_or_refuse(chunk: Chunk, root: Path) -> list[LabelledAssembly]:
+    """:func:`read_chunk` of a chunk just generated again, its ShardError a UserError with the
+    fix (it was set aside meanwhile by another process that found it damaged, or the disk)."""
+    try:
+        return read_chunk(chunk, root)
+    except ShardError as e:
+        raise UserError(f"{e}; fix: rerun, which moves it aside and generates it again") from None
 
 
 def seconds_per_assembly(root: Path, chunks: list[Chunk]) -> dict[int, float]:

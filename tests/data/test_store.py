@@ -1,3 +1,6 @@
+import gzip
+import hashlib
+import importlib
 import json
 import logging
 import multiprocessing as mp
@@ -16,8 +19,8 @@ from shard_damage import SHARD_DAMAGE, damage_shard
 
 from grace.data import claims
 from grace.data.records import dumps, loads
-from grace.data.shards import SHARD_SUFFIX
-from grace.data.store import plan, read_chunks, seconds_per_assembly
+from grace.data.shards import SHARD_SUFFIX, ShardInfo, encode_shard
+from grace.data.store import Chunk, plan, read_chunk, seconds_per_assembly
 from grace.errors import UserError
 
 
@@ -157,7 +160,7 @@ def test_worker_processes_give_identical_bytes(fake_cfg, tmp_path):
 def test_records_are_lossless(fake_cfg):
     cfg = fake_cfg()
     generation = generate(cfg)
-    samples = read_chunks(generation.path, generation.chunks)
+    samples = [s for chunk in generation.chunks for s in read_chunk(chunk, generation.path)]
     moved = samples[0]
     moved.assembly.relations[0, 5] = moved.assembly.relations[5, 0] = 7.25
     assert json.loads(dumps(moved))["relations"] == [[0, 5, 7.25], [5, 0, 7.25]]
@@ -180,21 +183,53 @@ def test_a_bad_simulator_config_fails_once_in_the_parent(fake_cfg, tmp_path):
     assert not list(tmp_path.rglob("*.gz"))
 
 
+REWRITTEN = {
+    "rewritten a record short": lambda records, a3: encode_shard(records[:-1]),
+    "rewritten with A3's records": lambda records, a3: encode_shard(a3),
+    "rewritten with lines that are no records": lambda records, a3: gzip.compress(b'{"a": 1}\n'),
+    "rewritten not gzip": lambda records, a3: b"rewritten by hand\n",
+}
+"""A4 shards rewritten together with the checksum in their manifest, so that only reading them
+finds what is wrong; from the chunk's own records and those of the same positions of A3."""
+
+
 def _damage(chunk, root, how):
     shard, manifest = chunk.path(root), chunk.manifest_path(root)
     if how == "truncated manifest":
         manifest.write_bytes(manifest.read_bytes()[:25])
     elif how == "no manifest":  # killed between the shard and its manifest
         manifest.unlink()
+    elif how == "shard and manifest one record short of the chunk":
+        data = encode_shard(read_chunk(chunk, root)[:-1])
+        node = json.loads(manifest.read_text())
+        node["shard"] = ShardInfo.of(data, chunk.count - 1).to_json()
+        node["seconds"] = node["seconds"][:-1]
+        shard.write_bytes(data)
+        manifest.write_text(json.dumps(node))
+    elif how in REWRITTEN:
+        a3 = Chunk(3, chunk.start, chunk.stop)
+        data = REWRITTEN[how](read_chunk(chunk, root), read_chunk(a3, root))
+        node = json.loads(manifest.read_text())
+        node["shard"]["sha256"] = hashlib.sha256(data).hexdigest()
+        shard.write_bytes(data)
+        manifest.write_text(json.dumps(node))
     else:
-        damage_shard(shard, how, read_chunks(root, [chunk]))
+        damage_shard(shard, how, read_chunk(chunk, root))
 
 
 @pytest.mark.parametrize(
     "how",
-    [*SHARD_DAMAGE, "truncated manifest", "no manifest"],
+    [
+        *SHARD_DAMAGE,
+        "truncated manifest",
+        "no manifest",
+        "shard and manifest one record short of the chunk",
+        *REWRITTEN,
+    ],
 )
 def test_a_damaged_chunk_is_reported_set_aside_and_generated_again(fake_cfg, how, caplog):
+    """Found by the checks before generating (checksum, manifest against its chunk) or, for a
+    shard rewritten with its checksum, when read: either way repaired in the same run."""
     cfg = fake_cfg()
     generation = generate(cfg)
     before = _data_bytes(generation.path)
@@ -217,12 +252,22 @@ def test_a_damaged_chunk_is_reported_set_aside_and_generated_again(fake_cfg, how
         assert list((generation.path / "corrupt" / "A4").iterdir())
 
 
-def test_a_damaged_shard_found_at_read_is_one_line_with_the_fix(fake_cfg):
+def test_a_chunk_still_wrong_once_generated_again_is_one_line_with_the_fix(fake_cfg, monkeypatch):
+    """Found wrong when read, set aside, generated again and still wrong (here a simulator that
+    makes assemblies a part short): one line, not a loop."""
     cfg = fake_cfg()
     generation = generate(cfg)
-    _damage(generation.chunks[0], generation.path, "half")
-    with pytest.raises(UserError, match=r"000000-000002\.jsonl\.gz: shard corrupted .*fix: rerun"):
-        read_chunks(generation.path, generation.chunks)
+    chunk = generation.chunks[3]
+    _damage(chunk, generation.path, "rewritten with A3's records")
+    simulator = importlib.import_module("grace_tests_conftest").FakeSimulator
+    sample = simulator.sample
+    monkeypatch.setattr(simulator, "sample", lambda self, n, rng: sample(self, n - 1, rng))
+    with pytest.raises(UserError) as error:
+        load_generated(cfg)
+    assert str(error.value) == (
+        f"{chunk.path(generation.path)}: shard holds assemblies of size [3], its chunk is A4; "
+        "fix: rerun, which moves it aside and generates it again"
+    )
 
 
 def _generate_at(cfg, barrier, counts):
