@@ -16,9 +16,12 @@ from the i-th; any later unsharded run (or :meth:`GeneratedSource.load`) finds t
 gaps. Every run checks each chunk against its manifest first: an empty, short, truncated or
 altered shard or manifest is reported in one line naming the file, moved to `<key>/corrupt/` and
 generated again, as is a chunk whose records, read, are not those of the chunk although they
-match the manifest's checksum (both rewritten). Processes generating one data set at once share
-its chunks through claim files (grace/data/claims.py) and wait for each other's, naming in the log
-each claim waited for. docs/operations.md, "Cache integrity".
+match the manifest's checksum (both rewritten). What a run cannot repair (a folder where a file
+of the data set belongs, a folder it must write into that is a file or refuses new files) stops
+it in one line with the fix before anything is written (:func:`survey`; the command line checks
+it before the run starts). Processes generating one data set at once share its chunks through
+claim files (grace/data/claims.py) and wait for each other's, naming in the log each claim waited
+for. docs/operations.md, "Cache integrity".
 """
 
 from __future__ import annotations
@@ -43,6 +46,7 @@ from tqdm import tqdm
 
 from grace.data import claims
 from grace.data.atomic import write_json_atomic, write_text_atomic
+from grace.data.folders import obstacle
 from grace.data.shards import (
     SHARD_SUFFIX,
     ShardError,
@@ -236,20 +240,98 @@ def read_chunk(chunk: Chunk, root: Path) -> list[LabelledAssembly]:
     return samples
 
 
+def _corrupt_folder(chunk: Chunk, root: Path) -> Path:
+    """Where the files of a damaged `chunk` are set aside."""
+    return root / "corrupt" / chunk.path(root).relative_to(root).parent
+
+
 def _set_aside(chunk: Chunk, root: Path, error: ShardError) -> None:
     """Move a corrupted chunk's files to `<root>/corrupt/` (kept for inspection) and say so."""
     stamp = time.strftime("%Y%m%d-%H%M%S")
-    moved = []
+    where = _corrupt_folder(chunk, root)
     for path in (chunk.path(root), chunk.manifest_path(root)):
-        target = root / "corrupt" / path.relative_to(root).parent / f"{stamp}-{path.name}"
-        target.parent.mkdir(parents=True, exist_ok=True)
         try:
-            os.replace(path, target)
-            moved.append(target)
+            where.mkdir(parents=True, exist_ok=True)
+            os.replace(path, where / f"{stamp}-{path.name}")
         except FileNotFoundError:
             pass
-    where = moved[0].parent if moved else root / "corrupt"
+        except OSError as e:  # found after the survey: a shard damaged while being read
+            raise UserError(
+                f"{error}; moving {path} to {where} failed ({e.strerror}); fix: make both "
+                "writable and rerun, which moves it aside and generates it again"
+            ) from None
     log.warning("%s; moved to %s, generating it again", error, where)
+
+
+@dataclass(frozen=True)
+class Survey:
+    """What a run finds in a data set's folder before it writes anything."""
+
+    done: set[Chunk]
+    damaged: dict[Chunk, ShardError]
+
+
+def survey(root: Path, chunks: list[Chunk], mine: list[Chunk]) -> Survey:
+    """Which of `chunks` exist and which are damaged (set aside and generated again), when this
+    run generates the missing ones of `mine`. What a run cannot repair is a UserError before it
+    writes anything: a folder where a chunk's file belongs (a run moves no one's folder), a
+    folder it must write into that is a file or refuses new files."""
+    _refuse_folders_for_files(root, chunks)
+    done, damaged = set(), {}
+    for chunk in chunks:
+        try:
+            if _check_chunk(chunk, root):
+                done.add(chunk)
+        except ShardError as e:
+            damaged[chunk] = e
+    writes = {}
+    for chunk in damaged:
+        writes[chunk.path(root).parent] = "the damaged chunk's files (moved aside)"
+        writes[_corrupt_folder(chunk, root)] = "the damaged chunk's files"
+    for chunk in mine:
+        if chunk not in done:
+            writes.setdefault(chunk.path(root).parent, "the chunk's claim, shard and manifest")
+    if not (root / "config.json").exists():
+        writes[root] = "config.json"
+    _refuse_unwritable(writes)
+    return Survey(done, damaged)
+
+
+def _refuse_folders_for_files(root: Path, chunks: list[Chunk]) -> None:
+    """A UserError naming the first folder found where a chunk's shard, manifest or claim file
+    belongs: left there on purpose, it is not a damaged chunk to move aside."""
+    folders = [
+        path
+        for chunk in chunks
+        for path in (chunk.path(root), chunk.manifest_path(root), chunk.claim_path(root))
+        if path.is_dir()
+    ]
+    if folders:
+        more = f" (and {len(folders) - 1} more such folders)" if len(folders) > 1 else ""
+        raise UserError(
+            f"{folders[0]} is a folder where a file of the data set belongs{more}; fix: move it "
+            "away or delete it: its chunk is then generated again"
+        )
+
+
+def _refuse_unwritable(writes: dict[Path, str]) -> None:
+    """A UserError for the first folder of `writes` (folder → what this run writes there) that
+    is a file, lies under one, or refuses new files (grace/data/folders.py)."""
+    for folder, what in writes.items():
+        found = obstacle(folder)
+        if found is None:
+            continue
+        if found.is_file:
+            raise UserError(
+                f"{found.path} is a file where a folder of the data set belongs ({folder}: "
+                f"{what}); fix: move it away or delete it: the run makes the folder"
+            )
+        where = "there" if found.path == folder else f"in {folder}"
+        raise UserError(
+            f"{found.path} is not writable ({found.reason}), and this run writes {what} {where}; "
+            f"fix: make it writable (chmod u+w {found.path}), or set paths.data_dir (or "
+            "GRACE_DATA_DIR) to another folder"
+        )
 
 
 _worker_simulator: Any = None
@@ -401,25 +483,16 @@ class GeneratedSource:
         """
         shard = self.shard if shard is None else shard
         num_shards = self.num_shards if num_shards is None else num_shards
-        if not 0 <= shard < num_shards:
-            raise UserError(
-                f"dataset.shard={shard}, dataset.num_shards={num_shards}; "
-                "fix: 0 ≤ shard < num_shards"
-            )
         root = self.path
         chunks = plan(requested_sizes(self.sizes), self.chunk_size)
+        found = survey(root, chunks, _share(chunks, shard, num_shards))
         manifest = root / "config.json"
         if not manifest.exists():
             text = json.dumps(self.key_config(), sort_keys=True, indent=2) + "\n"
             write_text_atomic(manifest, text)
-        done = set()
-        for chunk in chunks:
-            try:
-                if _check_chunk(chunk, root):
-                    done.add(chunk)
-            except ShardError as e:
-                _set_aside(chunk, root, e)
-        mine = [c for k, c in enumerate(chunks) if k % num_shards == shard and c not in done]
+        for chunk, error in found.damaged.items():
+            _set_aside(chunk, root, error)
+        mine = [c for c in _share(chunks, shard, num_shards) if c not in found.done]
         start = time.perf_counter()
         simulator = dict(self.simulator)
         generated = _run(mine, simulator, self.seed, root, self.workers) if mine else 0
@@ -430,6 +503,12 @@ class GeneratedSource:
             root, generated, wall, self.workers, missing, len(chunks),
         )  # fmt: skip
         return Generation(root, chunks, generated, missing)
+
+    def check_files(self) -> None:
+        """A UserError for what in the data set's folder a run cannot repair (:func:`survey`):
+        checked before any work, writing nothing."""
+        chunks = plan(requested_sizes(self.sizes), self.chunk_size)
+        survey(self.path, chunks, _share(chunks, self.shard, self.num_shards))
 
     def load(self) -> list[LabelledAssembly]:
         """Generate whatever is missing (all shards' share) and load the data set."""
@@ -452,6 +531,15 @@ class GeneratedSource:
             self.generate(shard=0, num_shards=1)
             read.update((chunk, _read_or_refuse(chunk, root)) for chunk in damaged)
         return [sample for chunk in generation.chunks for sample in read[chunk]]
+
+
+def _share(chunks: list[Chunk], shard: int, num_shards: int) -> list[Chunk]:
+    """The chunks that run `shard` of `num_shards` generates: every num_shards-th from shard."""
+    if not 0 <= shard < num_shards:
+        raise UserError(
+            f"dataset.shard={shard}, dataset.num_shards={num_shards}; fix: 0 ≤ shard < num_shards"
+        )
+    return chunks[shard::num_shards]
 
 
 def _read_or_refuse(chunk: Chunk, root: Path) -> list[LabelledAssembly]:

@@ -5,6 +5,8 @@ import json
 import logging
 import multiprocessing as mp
 import os
+import re
+import shutil
 import socket
 import subprocess
 import sys
@@ -318,6 +320,91 @@ def test_a_claim_of_a_dead_process_is_taken_over_and_a_live_one_respected(fake_c
     assert not waiting.done()  # waits for the live owner's chunk
     second.claim_path(root).unlink()  # the owner gave up without finishing
     assert waiting.result(timeout=30).generated == second.count
+
+
+def _files(folder: Path) -> dict[str, bytes | None]:
+    """Every path under `folder` with its bytes (None for a folder)."""
+    return {str(p.relative_to(folder)): None if p.is_dir() else p.read_bytes()
+            for p in sorted(folder.rglob("*"))}  # fmt: skip
+
+
+def _fix_after_refusal(cfg, intact: dict[str, bytes], expected: str, fix) -> None:
+    """The run is refused in one line matching `expected` with nothing written; after `fix()`
+    (what the line says to do) it loads the data set and the shards are the `intact` ones."""
+    data = Path(cfg.paths.data_dir)
+    before = _files(data)
+    with pytest.raises(UserError) as error:
+        generate(cfg)
+    assert "\n" not in str(error.value) and re.search(expected, str(error.value)), error.value
+    assert _files(data) == before
+    fix()
+    assert len(load_generated(cfg)) == 12
+    shards = _data_bytes(dataset_dir(cfg))
+    assert {k: v for k, v in shards.items() if not k.startswith("corrupt")} == intact
+
+
+@pytest.mark.parametrize("file", ["shard", "manifest", "claim"])
+def test_a_folder_where_a_chunk_file_belongs_is_refused_with_the_fix(fake_cfg, file):
+    """Not left by a crash or a bad copy: the run names it rather than moving someone's folder
+    (the chunk's manifest still exists for the shard and the claim)."""
+    cfg = fake_cfg()
+    generation = generate(cfg)
+    intact = _data_bytes(generation.path)
+    chunk = generation.chunks[3]
+    path = {"shard": chunk.path, "manifest": chunk.manifest_path, "claim": chunk.claim_path}
+    folder = path[file](generation.path)
+    folder.unlink(missing_ok=True)
+    (folder / "inside").mkdir(parents=True)
+    _fix_after_refusal(
+        cfg,
+        intact,
+        rf"^{folder} is a folder where a file of the data set belongs; fix: move it away or "
+        r"delete it: its chunk is then generated again$",
+        lambda: shutil.rmtree(folder),
+    )
+
+
+@pytest.mark.parametrize("where", ["corrupt", "A4", "corrupt/A4"])
+def test_a_file_where_a_folder_of_the_data_set_belongs_is_refused_with_the_fix(fake_cfg, where):
+    """`corrupt` (or its A4) a file while a damaged A4 chunk must be moved there; `A4` a file
+    while its chunks must be written there."""
+    cfg = fake_cfg()
+    generation = generate(cfg)
+    root = generation.path
+    intact = _data_bytes(root)
+    if where == "A4":
+        shutil.rmtree(root / "A4")
+    else:
+        _damage(generation.chunks[3], root, "half")
+        (root / where).parent.mkdir(parents=True, exist_ok=True)
+    (root / where).write_text("in the way\n")
+    _fix_after_refusal(
+        cfg,
+        intact,
+        rf"^{root / where} is a file where a folder of the data set belongs \(.*\); fix: move it "
+        r"away or delete it: the run makes the folder$",
+        (root / where).unlink,
+    )
+
+
+def test_a_folder_the_run_must_write_into_that_refuses_files_is_named_with_the_fix(
+    fake_cfg, lock_folder
+):
+    """A chunk of A4 is missing and A4/ refuses new files: its claim could not be written."""
+    cfg = fake_cfg()
+    generation = generate(cfg)
+    intact = _data_bytes(generation.path)
+    folder = generation.path / "A4"
+    generation.chunks[3].manifest_path(generation.path).unlink()
+    unlock = lock_folder(folder)
+    _fix_after_refusal(
+        cfg,
+        intact,
+        rf"^{folder} is not writable \(.*\), and this run writes the chunk's claim, shard and "
+        rf"manifest there; fix: make it writable \(chmod u\+w {folder}\)",
+        unlock,
+    )
+    assert not list(folder.glob("*.claim"))
 
 
 @pytest.mark.parametrize("idle", [60.0, 0.0], ids=["left a minute ago", "touched just now"])
