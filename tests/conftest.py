@@ -24,9 +24,12 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
+import subprocess
 import sys
+import tempfile
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -237,3 +240,35 @@ def results_run() -> Callable[..., Path]:
         return folder
 
     return write
+
+
+def _unlock(folder: Path) -> None:
+    if os.geteuid() == 0:
+        subprocess.run(["chattr", "-i", str(folder)], capture_output=True, check=False)
+    else:
+        folder.chmod(0o755)
+
+
+@pytest.fixture
+def lock_folder() -> Iterator[Callable[[Path], Callable[[], None]]]:
+    """`lock(folder)` makes `folder` refuse new files, for any user: mode 555, or for root (whom
+    modes do not stop) the immutable attribute (chattr +i), and returns what undoes it (the fix
+    a test follows; undone at the end anyway). Skips the test where neither stops a write."""
+    locked: list[Path] = []
+
+    def lock(folder: Path) -> Callable[[], None]:
+        if os.geteuid() == 0 and shutil.which("chattr"):
+            subprocess.run(["chattr", "+i", str(folder)], capture_output=True, check=False)
+        elif os.geteuid() != 0:
+            folder.chmod(0o555)
+        locked.append(folder)
+        try:
+            with tempfile.TemporaryFile(dir=folder):
+                pass
+        except OSError:
+            return lambda: _unlock(folder)
+        pytest.skip("no way to make a folder refuse new files here (root without chattr +i)")
+
+    yield lock
+    for folder in locked:
+        _unlock(folder)

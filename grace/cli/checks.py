@@ -64,6 +64,7 @@ def check_config(cfg: DictConfig) -> None:
         source = instantiate(cfg.dataset)
     if hasattr(source, "check_sizes"):  # a generated set: its sizes, before any generation
         source.check_sizes()
+        source.check_files()  # and what in its folder a run cannot repair
     if cfg.task.name not in CROSS_VALIDATED:
         return
     counts = source.counts() if hasattr(source, "counts") else None

@@ -9,12 +9,12 @@ Ranges and why: docs/operations.md, "Bad input".
 from __future__ import annotations
 
 import math
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 from omegaconf import DictConfig, OmegaConf
 
+from grace.data.folders import obstacle
 from grace.errors import UserError
 
 
@@ -78,22 +78,20 @@ FOLDERS = (("paths.data_dir", " (or GRACE_DATA_DIR)"), ("paths.output_dir", ""))
 def check_folder(path: Path, key: str, also: str = "") -> None:
     """A UserError if `path` (the folder of config key `key`, also set by `also`) cannot be
     created or written: it is a file, lies under a file, or its nearest existing folder refuses
-    a new file. Writes nothing: the probe is an unnamed temporary file."""
+    a new file (grace/data/folders.py; writes nothing)."""
     path = Path(path).absolute()
     fix = f"fix: set {key}{also} to"
-    if path.exists() and not path.is_dir():
+    found = obstacle(path)
+    if found is None:
+        return
+    if found.is_file and found.path == path:
         raise UserError(f"{key}={path} is a file, not a folder; {fix} a folder")
-    existing = next(p for p in (path, *path.parents) if p.exists())
-    if not existing.is_dir():
-        raise UserError(f"{key}={path} lies under the file {existing}; {fix} a folder elsewhere")
-    try:
-        with tempfile.TemporaryFile(dir=existing):
-            pass
-    except OSError as error:
-        raise UserError(
-            f"{key}={path}: the folder {existing} is not writable ({error.strerror}); "
-            f"{fix} a writable folder, or make {existing} writable"
-        ) from None
+    if found.is_file:
+        raise UserError(f"{key}={path} lies under the file {found.path}; {fix} a folder elsewhere")
+    raise UserError(
+        f"{key}={path}: the folder {found.path} is not writable ({found.reason}); "
+        f"{fix} a writable folder, or make {found.path} writable"
+    )
 
 
 def check_paths(cfg: DictConfig) -> None:

@@ -55,6 +55,8 @@ def _read_cache(target: Path, root: str | Path) -> list[LabelledAssembly]:
     try:
         shards = json.loads(manifest.read_bytes())["shards"]
         expected = {int(size): ShardInfo.from_json(node) for size, node in shards.items()}
+    except OSError as e:  # a folder in its place, no permission to read
+        raise UserError(f"{manifest}: cache manifest unreadable ({e.strerror}); {fix}") from None
     except (ValueError, KeyError, TypeError, AttributeError) as e:
         raise UserError(f"{manifest}: cache manifest unreadable ({e}); {fix}") from None
     samples = []

@@ -12,7 +12,6 @@ from __future__ import annotations
 import gzip
 import hashlib
 import io
-import json
 import zlib
 from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass
@@ -77,6 +76,8 @@ def check_shard(path: str | Path, expected: ShardInfo) -> bytes:
         data = path.read_bytes()
     except FileNotFoundError:
         raise ShardError(f"{path}: shard missing") from None
+    except OSError as e:  # a folder in its place, no permission to read
+        raise ShardError(f"{path}: shard unreadable ({e.strerror})") from None
     if hashlib.sha256(data).hexdigest() != expected.sha256:
         raise ShardError(
             f"{path}: shard corrupted ({len(data)} bytes whose SHA-256 is not the one its "
@@ -91,8 +92,12 @@ def read_shard(path: str | Path, expected: ShardInfo) -> list[LabelledAssembly]:
     try:
         text = gzip.decompress(data).decode("utf-8")
         samples = [loads(line) for line in text.splitlines() if line.strip()]
-    except (OSError, EOFError, zlib.error, UnicodeDecodeError, json.JSONDecodeError) as e:
+    except (OSError, EOFError, zlib.error, UnicodeDecodeError) as e:
         raise ShardError(f"{path}: shard unreadable ({e})") from None
+    except (ValueError, KeyError, TypeError, IndexError) as e:  # JSON, or not a record
+        raise ShardError(
+            f"{path}: shard holds a line that is no record ({type(e).__name__}: {e})"
+        ) from None
     if len(samples) != expected.records:
         raise ShardError(f"{path}: shard holds {len(samples)} of its {expected.records} records")
     return samples

@@ -15,8 +15,13 @@ depend on chunking, sharding or the number of workers or processes. A rerun skip
 from the i-th; any later unsharded run (or :meth:`GeneratedSource.load`) finds them and only fills
 gaps. Every run checks each chunk against its manifest first: an empty, short, truncated or
 altered shard or manifest is reported in one line naming the file, moved to `<key>/corrupt/` and
-generated again. Processes generating one data set at once share its chunks through claim files
-(grace/data/claims.py) and wait for each other's. docs/operations.md, "Cache integrity".
+generated again, as is a chunk whose records, read, are not those of the chunk although they
+match the manifest's checksum (both rewritten). What a run cannot repair (a folder where a file
+of the data set belongs, a folder it must write into that is a file or refuses new files) stops
+it in one line with the fix before anything is written (:func:`survey`; the command line checks
+it before the run starts). Processes generating one data set at once share its chunks through
+claim files (grace/data/claims.py) and wait for each other's, naming in the log each claim waited
+for. docs/operations.md, "Cache integrity".
 """
 
 from __future__ import annotations
@@ -41,6 +46,7 @@ from tqdm import tqdm
 
 from grace.data import claims
 from grace.data.atomic import write_json_atomic, write_text_atomic
+from grace.data.folders import obstacle
 from grace.data.shards import (
     SHARD_SUFFIX,
     ShardError,
@@ -201,6 +207,8 @@ def _read_manifest(chunk: Chunk, root: Path) -> dict[str, Any]:
         node = json.loads(path.read_bytes())
         info = ShardInfo.from_json(node["shard"])
         seconds = [float(t) for t in node["seconds"]]
+    except OSError as e:
+        raise ShardError(f"{path}: manifest unreadable ({e.strerror})") from None
     except (ValueError, KeyError, TypeError) as e:
         raise ShardError(f"{path}: manifest unreadable ({type(e).__name__}: {e})") from None
     if info.records != chunk.count or len(seconds) != chunk.count:
@@ -219,20 +227,111 @@ def _check_chunk(chunk: Chunk, root: Path) -> bool:
     return True
 
 
+def read_chunk(chunk: Chunk, root: Path) -> list[LabelledAssembly]:
+    """The assemblies of `chunk`, checked against its manifest (checksum, record count) and
+    the chunk (their size); ShardError naming the file if they differ."""
+    path = chunk.path(root)
+    samples = read_shard(path, _read_manifest(chunk, root)["shard"])
+    sizes = sorted({s.size for s in samples} - {chunk.size})
+    if sizes:
+        raise ShardError(
+            f"{path}: shard holds assemblies of size {sizes}, its chunk is A{chunk.size}"
+        )
+    return samples
+
+
+def _corrupt_folder(chunk: Chunk, root: Path) -> Path:
+    """Where the files of a damaged `chunk` are set aside."""
+    return root / "corrupt" / chunk.path(root).relative_to(root).parent
+
+
 def _set_aside(chunk: Chunk, root: Path, error: ShardError) -> None:
     """Move a corrupted chunk's files to `<root>/corrupt/` (kept for inspection) and say so."""
     stamp = time.strftime("%Y%m%d-%H%M%S")
-    moved = []
+    where = _corrupt_folder(chunk, root)
     for path in (chunk.path(root), chunk.manifest_path(root)):
-        target = root / "corrupt" / path.relative_to(root).parent / f"{stamp}-{path.name}"
-        target.parent.mkdir(parents=True, exist_ok=True)
         try:
-            os.replace(path, target)
-            moved.append(target)
+            where.mkdir(parents=True, exist_ok=True)
+            os.replace(path, where / f"{stamp}-{path.name}")
         except FileNotFoundError:
             pass
-    where = moved[0].parent if moved else root / "corrupt"
+        except OSError as e:  # found after the survey: a shard damaged while being read
+            raise UserError(
+                f"{error}; moving {path} to {where} failed ({e.strerror}); fix: make both "
+                "writable and rerun, which moves it aside and generates it again"
+            ) from None
     log.warning("%s; moved to %s, generating it again", error, where)
+
+
+@dataclass(frozen=True)
+class Survey:
+    """What a run finds in a data set's folder before it writes anything."""
+
+    done: set[Chunk]
+    damaged: dict[Chunk, ShardError]
+
+
+def survey(root: Path, chunks: list[Chunk], mine: list[Chunk]) -> Survey:
+    """Which of `chunks` exist and which are damaged (set aside and generated again), when this
+    run generates the missing ones of `mine`. What a run cannot repair is a UserError before it
+    writes anything: a folder where a chunk's file belongs (a run moves no one's folder), a
+    folder it must write into that is a file or refuses new files."""
+    _refuse_folders_for_files(root, chunks)
+    done, damaged = set(), {}
+    for chunk in chunks:
+        try:
+            if _check_chunk(chunk, root):
+                done.add(chunk)
+        except ShardError as e:
+            damaged[chunk] = e
+    writes = {}
+    for chunk in damaged:
+        writes[chunk.path(root).parent] = "the damaged chunk's files (moved aside)"
+        writes[_corrupt_folder(chunk, root)] = "the damaged chunk's files"
+    for chunk in mine:
+        if chunk not in done:
+            writes.setdefault(chunk.path(root).parent, "the chunk's claim, shard and manifest")
+    if not (root / "config.json").exists():
+        writes[root] = "config.json"
+    _refuse_unwritable(writes)
+    return Survey(done, damaged)
+
+
+def _refuse_folders_for_files(root: Path, chunks: list[Chunk]) -> None:
+    """A UserError naming the first folder found where a chunk's shard, manifest or claim file
+    belongs: left there on purpose, it is not a damaged chunk to move aside."""
+    folders = [
+        path
+        for chunk in chunks
+        for path in (chunk.path(root), chunk.manifest_path(root), chunk.claim_path(root))
+        if path.is_dir()
+    ]
+    if folders:
+        more = f" (and {len(folders) - 1} more such folders)" if len(folders) > 1 else ""
+        raise UserError(
+            f"{folders[0]} is a folder where a file of the data set belongs{more}; fix: move it "
+            "away or delete it: its chunk is then generated again"
+        )
+
+
+def _refuse_unwritable(writes: dict[Path, str]) -> None:
+    """A UserError for the first folder of `writes` (folder → what this run writes there) that
+    is a file, lies under one, or refuses new files (grace/data/folders.py)."""
+    for folder, what in writes.items():
+        found = obstacle(folder)
+        if found is None:
+            continue
+        if found.is_file:
+            raise UserError(
+                f"{found.path} is a file where a folder of the data set belongs ({folder}: "
+                f"{what}); fix: move it away or delete it: the run makes the folder"
+            )
+        where = "there" if found.path == folder else f"in {folder}"
+        raise UserError(
+            f"{found.path} is not writable ({found.reason}), and this run writes {what} {where}; "
+            f"fix: make it writable (chmod u+w {found.path}), or set paths.data_dir (or "
+            "GRACE_DATA_DIR) to another folder"
+        )
 
 
 _worker_simulator: Any = None
@@ -278,6 +377,7 @@ def _run(
     pending = sorted(pending, key=lambda c: -c.size)
     total = sum(c.count for c in pending)
     generated, others = 0, 0
+    announced: set[Chunk] = set()
     pool = None
     if workers > 1 and len(pending) > 1:
         ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
@@ -298,7 +398,7 @@ def _run(
                 bar.update(sum(n or 0 for _, n in results))
             generated += sum(n or 0 for _, n in results)
             busy = [c for c, n in results if n is None]
-            pending = _wait_for_others(busy, root)
+            pending = _wait_for_others(busy, root, announced)
             others += sum(c.count for c in busy if c not in pending)
             bar.update(sum(c.count for c in busy if c not in pending))
     if others:
@@ -306,13 +406,19 @@ def _run(
     return generated
 
 
-def _wait_for_others(busy: list[Chunk], root: Path) -> list[Chunk]:
+def _wait_for_others(busy: list[Chunk], root: Path, announced: set[Chunk]) -> list[Chunk]:
     """Wait until a chunk that other processes claimed is done or free to take over; return
-    those not done."""
+    those not done. Each chunk waited for is named once in the log (`announced`), with who holds
+    it and when it is taken over."""
     while busy:
         left = [c for c in busy if not c.manifest_path(root).exists()]
-        if len(left) < len(busy) or not all(claims.holder_alive(c.claim_path(root)) for c in left):
+        holders = {c: claims.live_holder(c.claim_path(root)) for c in left}
+        if len(left) < len(busy) or not all(holders.values()):
             return left
+        for chunk, holder in holders.items():
+            if chunk not in announced:
+                log.info("waiting for %s: %s", chunk.claim_path(root), holder)
+                announced.add(chunk)
         time.sleep(CLAIM_POLL_SECONDS)
     return busy
 
@@ -377,25 +483,16 @@ class GeneratedSource:
         """
         shard = self.shard if shard is None else shard
         num_shards = self.num_shards if num_shards is None else num_shards
-        if not 0 <= shard < num_shards:
-            raise UserError(
-                f"dataset.shard={shard}, dataset.num_shards={num_shards}; "
-                "fix: 0 ≤ shard < num_shards"
-            )
         root = self.path
         chunks = plan(requested_sizes(self.sizes), self.chunk_size)
+        found = survey(root, chunks, _share(chunks, shard, num_shards))
         manifest = root / "config.json"
         if not manifest.exists():
             text = json.dumps(self.key_config(), sort_keys=True, indent=2) + "\n"
             write_text_atomic(manifest, text)
-        done = set()
-        for chunk in chunks:
-            try:
-                if _check_chunk(chunk, root):
-                    done.add(chunk)
-            except ShardError as e:
-                _set_aside(chunk, root, e)
-        mine = [c for k, c in enumerate(chunks) if k % num_shards == shard and c not in done]
+        for chunk, error in found.damaged.items():
+            _set_aside(chunk, root, error)
+        mine = [c for c in _share(chunks, shard, num_shards) if c not in found.done]
         start = time.perf_counter()
         simulator = dict(self.simulator)
         generated = _run(mine, simulator, self.seed, root, self.workers) if mine else 0
@@ -407,24 +504,51 @@ class GeneratedSource:
         )  # fmt: skip
         return Generation(root, chunks, generated, missing)
 
+    def check_files(self) -> None:
+        """A UserError for what in the data set's folder a run cannot repair (:func:`survey`):
+        checked before any work, writing nothing."""
+        chunks = plan(requested_sizes(self.sizes), self.chunk_size)
+        survey(self.path, chunks, _share(chunks, self.shard, self.num_shards))
+
     def load(self) -> list[LabelledAssembly]:
         """Generate whatever is missing (all shards' share) and load the data set."""
-        generation = self.generate(shard=0, num_shards=1)
-        return read_chunks(generation.path, generation.chunks)
+        return self.read(self.generate(shard=0, num_shards=1))
+
+    def read(self, generation: Generation) -> list[LabelledAssembly]:
+        """The assemblies of a complete `generation` in order (size ascending, then index). A
+        chunk that matches its manifest's checksum but does not hold the chunk's records (shard
+        and checksum both rewritten: only reading finds it) is set aside and generated again,
+        like a chunk that fails its checksum."""
+        root = generation.path
+        read, damaged = {}, []
+        for chunk in generation.chunks:
+            try:
+                read[chunk] = read_chunk(chunk, root)
+            except ShardError as e:
+                _set_aside(chunk, root, e)
+                damaged.append(chunk)
+        if damaged:
+            self.generate(shard=0, num_shards=1)
+            read.update((chunk, _read_or_refuse(chunk, root)) for chunk in damaged)
+        return [sample for chunk in generation.chunks for sample in read[chunk]]
 
 
-def read_chunks(root: Path, chunks: list[Chunk]) -> list[LabelledAssembly]:
-    """The assemblies of `chunks` in order (size ascending, then index), each shard checked
-    against its manifest once more (a UserError naming the file if it changed since)."""
-    samples = []
-    for chunk in chunks:
-        try:
-            samples += read_shard(chunk.path(root), _read_manifest(chunk, root)["shard"])
-        except ShardError as e:
-            raise UserError(
-                f"{e}; fix: rerun, which moves it aside and generates it again"
-            ) from None
-    return samples
+def _share(chunks: list[Chunk], shard: int, num_shards: int) -> list[Chunk]:
+    """The chunks that run `shard` of `num_shards` generates: every num_shards-th from shard."""
+    if not 0 <= shard < num_shards:
+        raise UserError(
+            f"dataset.shard={shard}, dataset.num_shards={num_shards}; fix: 0 ≤ shard < num_shards"
+        )
+    return chunks[shard::num_shards]
+
+
+def _read_or_refuse(chunk: Chunk, root: Path) -> list[LabelledAssembly]:
+    """:func:`read_chunk` of a chunk just generated again, its ShardError a UserError with the
+    fix (it was set aside meanwhile by another process that found it damaged, or the disk)."""
+    try:
+        return read_chunk(chunk, root)
+    except ShardError as e:
+        raise UserError(f"{e}; fix: rerun, which moves it aside and generates it again") from None
 
 
 def seconds_per_assembly(root: Path, chunks: list[Chunk]) -> dict[int, float]:

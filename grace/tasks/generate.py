@@ -20,7 +20,7 @@ from grace.cli.runner import TaskSettings
 from grace.data.atomic import write_bytes_atomic, write_json_atomic, write_text_atomic
 from grace.data.raw_format import export_raw
 from grace.data.stats import dataset_stats
-from grace.data.store import GeneratedSource, read_chunks, seconds_per_assembly
+from grace.data.store import GeneratedSource, seconds_per_assembly
 from grace.domain.sample import LabelledAssembly
 from grace.errors import UserError
 from grace.evaluation.tables import dataset_tables
@@ -70,7 +70,7 @@ def run(cfg: DictConfig) -> None:
             generation.missing,
         )
         return None
-    samples = read_chunks(generation.path, generation.chunks)
+    samples = source.read(generation)
     out = Path(cfg.paths.output_dir)
     seconds = seconds_per_assembly(generation.path, generation.chunks)
     stats = dataset_stats(samples, seconds, str(generation.path))

@@ -1,3 +1,5 @@
+import shutil
+
 import numpy as np
 import pytest
 from hydra.utils import instantiate
@@ -47,13 +49,16 @@ def test_raw_data_set_is_imported_and_cached(cfg_factory, raw_tree, tmp_path, mo
     assert not reloaded[1].truth.feasible and len(list((tmp_path / "data").iterdir())) == 2
 
 
-@pytest.mark.parametrize("damage", ["half a shard", "empty shard", "truncated manifest"])
+@pytest.mark.parametrize(
+    "damage",
+    ["half a shard", "empty shard", "truncated manifest", "shard a folder", "manifest a folder"],
+)
 def test_a_damaged_raw_cache_is_refused_in_one_line_with_the_fix(
     cfg_factory, raw_tree, tmp_path, damage
 ):
     """Imported raw data cannot be made again from a seed: the cache is refused, not repaired,
-    and the line says how to import it again."""
-    root, _ = raw_tree
+    and the line says how to import it again, which works."""
+    root, expected = raw_tree
     cfg = cfg_factory("dataset=raw", f"dataset.path={root}", "dataset.sizes=null", *DROP)
     load_dataset(cfg)
     (cache,) = (tmp_path / "data").iterdir()
@@ -62,17 +67,23 @@ def test_a_damaged_raw_cache_is_refused_in_one_line_with_the_fix(
         shard.write_bytes(shard.read_bytes()[: shard.stat().st_size // 2])
     elif damage == "empty shard":
         shard.write_bytes(b"")
+    elif damage.endswith("a folder"):
+        path = shard if damage.startswith("shard") else manifest
+        path.unlink()
+        path.mkdir()
     else:
         manifest.write_text(manifest.read_text()[:30])
     with pytest.raises(UserError) as error:
         load_dataset(cfg)
     message = str(error.value)
     assert "\n" not in message
-    assert message.startswith(str(manifest if damage == "truncated manifest" else shard))
+    assert message.startswith(str(shard if "shard" in damage else manifest))
     assert message.endswith(f"fix: delete {cache} and rerun: the raw folders under {root} are "
                             "imported again")  # fmt: skip
     with pytest.raises(UserError):  # task=... counts() reads the cache the same way
         instantiate(cfg.dataset).counts()
+    shutil.rmtree(cache)
+    assert load_dataset(cfg) == expected
 
 
 def test_raw_sizes_select_the_first_of_each_size(cfg_factory, raw_tree):

@@ -1,6 +1,12 @@
+import gzip
+import hashlib
+import importlib
 import json
 import logging
 import multiprocessing as mp
+import os
+import re
+import shutil
 import socket
 import subprocess
 import sys
@@ -15,8 +21,8 @@ from shard_damage import SHARD_DAMAGE, damage_shard
 
 from grace.data import claims
 from grace.data.records import dumps, loads
-from grace.data.shards import SHARD_SUFFIX
-from grace.data.store import plan, read_chunks, seconds_per_assembly
+from grace.data.shards import SHARD_SUFFIX, ShardInfo, encode_shard
+from grace.data.store import Chunk, plan, read_chunk, seconds_per_assembly
 from grace.errors import UserError
 
 
@@ -156,7 +162,7 @@ def test_worker_processes_give_identical_bytes(fake_cfg, tmp_path):
 def test_records_are_lossless(fake_cfg):
     cfg = fake_cfg()
     generation = generate(cfg)
-    samples = read_chunks(generation.path, generation.chunks)
+    samples = [s for chunk in generation.chunks for s in read_chunk(chunk, generation.path)]
     moved = samples[0]
     moved.assembly.relations[0, 5] = moved.assembly.relations[5, 0] = 7.25
     assert json.loads(dumps(moved))["relations"] == [[0, 5, 7.25], [5, 0, 7.25]]
@@ -179,21 +185,53 @@ def test_a_bad_simulator_config_fails_once_in_the_parent(fake_cfg, tmp_path):
     assert not list(tmp_path.rglob("*.gz"))
 
 
+REWRITTEN = {
+    "rewritten a record short": lambda records, a3: encode_shard(records[:-1]),
+    "rewritten with A3's records": lambda records, a3: encode_shard(a3),
+    "rewritten with lines that are no records": lambda records, a3: gzip.compress(b'{"a": 1}\n'),
+    "rewritten not gzip": lambda records, a3: b"rewritten by hand\n",
+}
+"""A4 shards rewritten together with the checksum in their manifest, so that only reading them
+finds what is wrong; from the chunk's own records and those of the same positions of A3."""
+
+
 def _damage(chunk, root, how):
     shard, manifest = chunk.path(root), chunk.manifest_path(root)
     if how == "truncated manifest":
         manifest.write_bytes(manifest.read_bytes()[:25])
     elif how == "no manifest":  # killed between the shard and its manifest
         manifest.unlink()
+    elif how == "shard and manifest one record short of the chunk":
+        data = encode_shard(read_chunk(chunk, root)[:-1])
+        node = json.loads(manifest.read_text())
+        node["shard"] = ShardInfo.of(data, chunk.count - 1).to_json()
+        node["seconds"] = node["seconds"][:-1]
+        shard.write_bytes(data)
+        manifest.write_text(json.dumps(node))
+    elif how in REWRITTEN:
+        a3 = Chunk(3, chunk.start, chunk.stop)
+        data = REWRITTEN[how](read_chunk(chunk, root), read_chunk(a3, root))
+        node = json.loads(manifest.read_text())
+        node["shard"]["sha256"] = hashlib.sha256(data).hexdigest()
+        shard.write_bytes(data)
+        manifest.write_text(json.dumps(node))
     else:
-        damage_shard(shard, how, read_chunks(root, [chunk]))
+        damage_shard(shard, how, read_chunk(chunk, root))
 
 
 @pytest.mark.parametrize(
     "how",
-    [*SHARD_DAMAGE, "truncated manifest", "no manifest"],
+    [
+        *SHARD_DAMAGE,
+        "truncated manifest",
+        "no manifest",
+        "shard and manifest one record short of the chunk",
+        *REWRITTEN,
+    ],
 )
 def test_a_damaged_chunk_is_reported_set_aside_and_generated_again(fake_cfg, how, caplog):
+    """Found by the checks before generating (checksum, manifest against its chunk) or, for a
+    shard rewritten with its checksum, when read: either way repaired in the same run."""
     cfg = fake_cfg()
     generation = generate(cfg)
     before = _data_bytes(generation.path)
@@ -216,12 +254,22 @@ def test_a_damaged_chunk_is_reported_set_aside_and_generated_again(fake_cfg, how
         assert list((generation.path / "corrupt" / "A4").iterdir())
 
 
-def test_a_damaged_shard_found_at_read_is_one_line_with_the_fix(fake_cfg):
+def test_a_chunk_still_wrong_once_generated_again_is_one_line_with_the_fix(fake_cfg, monkeypatch):
+    """Found wrong when read, set aside, generated again and still wrong (here a simulator that
+    makes assemblies a part short): one line, not a loop."""
     cfg = fake_cfg()
     generation = generate(cfg)
-    _damage(generation.chunks[0], generation.path, "half")
-    with pytest.raises(UserError, match=r"000000-000002\.jsonl\.gz: shard corrupted .*fix: rerun"):
-        read_chunks(generation.path, generation.chunks)
+    chunk = generation.chunks[3]
+    _damage(chunk, generation.path, "rewritten with A3's records")
+    simulator = importlib.import_module("grace_tests_conftest").FakeSimulator
+    sample = simulator.sample
+    monkeypatch.setattr(simulator, "sample", lambda self, n, rng: sample(self, n - 1, rng))
+    with pytest.raises(UserError) as error:
+        load_generated(cfg)
+    assert str(error.value) == (
+        f"{chunk.path(generation.path)}: shard holds assemblies of size [3], its chunk is A4; "
+        "fix: rerun, which moves it aside and generates it again"
+    )
 
 
 def _generate_at(cfg, barrier, counts):
@@ -272,3 +320,111 @@ def test_a_claim_of_a_dead_process_is_taken_over_and_a_live_one_respected(fake_c
     assert not waiting.done()  # waits for the live owner's chunk
     second.claim_path(root).unlink()  # the owner gave up without finishing
     assert waiting.result(timeout=30).generated == second.count
+
+
+def _files(folder: Path) -> dict[str, bytes | None]:
+    """Every path under `folder` with its bytes (None for a folder)."""
+    return {str(p.relative_to(folder)): None if p.is_dir() else p.read_bytes()
+            for p in sorted(folder.rglob("*"))}  # fmt: skip
+
+
+def _fix_after_refusal(cfg, intact: dict[str, bytes], expected: str, fix) -> None:
+    """The run is refused in one line matching `expected` with nothing written; after `fix()`
+    (what the line says to do) it loads the data set and the shards are the `intact` ones."""
+    data = Path(cfg.paths.data_dir)
+    before = _files(data)
+    with pytest.raises(UserError) as error:
+        generate(cfg)
+    assert "\n" not in str(error.value) and re.search(expected, str(error.value)), error.value
+    assert _files(data) == before
+    fix()
+    assert len(load_generated(cfg)) == 12
+    shards = _data_bytes(dataset_dir(cfg))
+    assert {k: v for k, v in shards.items() if not k.startswith("corrupt")} == intact
+
+
+@pytest.mark.parametrize("file", ["shard", "manifest", "claim"])
+def test_a_folder_where_a_chunk_file_belongs_is_refused_with_the_fix(fake_cfg, file):
+    """Not left by a crash or a bad copy: the run names it rather than moving someone's folder
+    (the chunk's manifest still exists for the shard and the claim)."""
+    cfg = fake_cfg()
+    generation = generate(cfg)
+    intact = _data_bytes(generation.path)
+    chunk = generation.chunks[3]
+    path = {"shard": chunk.path, "manifest": chunk.manifest_path, "claim": chunk.claim_path}
+    folder = path[file](generation.path)
+    folder.unlink(missing_ok=True)
+    (folder / "inside").mkdir(parents=True)
+    _fix_after_refusal(
+        cfg,
+        intact,
+        rf"^{folder} is a folder where a file of the data set belongs; fix: move it away or "
+        r"delete it: its chunk is then generated again$",
+        lambda: shutil.rmtree(folder),
+    )
+
+
+@pytest.mark.parametrize("where", ["corrupt", "A4", "corrupt/A4"])
+def test_a_file_where_a_folder_of_the_data_set_belongs_is_refused_with_the_fix(fake_cfg, where):
+    """`corrupt` (or its A4) a file while a damaged A4 chunk must be moved there; `A4` a file
+    while its chunks must be written there."""
+    cfg = fake_cfg()
+    generation = generate(cfg)
+    root = generation.path
+    intact = _data_bytes(root)
+    if where == "A4":
+        shutil.rmtree(root / "A4")
+    else:
+        _damage(generation.chunks[3], root, "half")
+        (root / where).parent.mkdir(parents=True, exist_ok=True)
+    (root / where).write_text("in the way\n")
+    _fix_after_refusal(
+        cfg,
+        intact,
+        rf"^{root / where} is a file where a folder of the data set belongs \(.*\); fix: move it "
+        r"away or delete it: the run makes the folder$",
+        (root / where).unlink,
+    )
+
+
+def test_a_folder_the_run_must_write_into_that_refuses_files_is_named_with_the_fix(
+    fake_cfg, lock_folder
+):
+    """A chunk of A4 is missing and A4/ refuses new files: its claim could not be written."""
+    cfg = fake_cfg()
+    generation = generate(cfg)
+    intact = _data_bytes(generation.path)
+    folder = generation.path / "A4"
+    generation.chunks[3].manifest_path(generation.path).unlink()
+    unlock = lock_folder(folder)
+    _fix_after_refusal(
+        cfg,
+        intact,
+        rf"^{folder} is not writable \(.*\), and this run writes the chunk's claim, shard and "
+        rf"manifest there; fix: make it writable \(chmod u\+w {folder}\)",
+        unlock,
+    )
+    assert not list(folder.glob("*.claim"))
+
+
+@pytest.mark.parametrize("idle", [60.0, 0.0], ids=["left a minute ago", "touched just now"])
+def test_an_empty_claim_left_by_a_stopped_run_is_taken_over(fake_cfg, caplog, monkeypatch, idle):
+    """A run stopped between creating a claim and writing its owner leaves it empty; `touch`
+    makes one just now. The rerun takes the first over at once; it names the second and how long
+    it waits (claims.WRITE_SECONDS, shortened here), then takes it over."""
+    monkeypatch.setattr(claims, "WRITE_SECONDS", 0.5, raising=False)
+    cfg = fake_cfg()
+    generation = generate(cfg)
+    chunk = generation.chunks[3]
+    for path in (chunk.path(generation.path), chunk.manifest_path(generation.path)):
+        path.unlink()
+    claim = chunk.claim_path(generation.path)
+    claim.touch()
+    os.utime(claim, (time.time() - idle,) * 2)
+    with caplog.at_level(logging.INFO, logger="grace.data.store"):
+        rerun = ThreadPoolExecutor(1).submit(generate, cfg)
+        assert rerun.result(timeout=30).generated == chunk.count
+    waits = [r.getMessage() for r in caplog.records if r.getMessage().startswith("waiting")]
+    named = f"waiting for {claim}: names no owner (empty); taken over once 0.5 s old"
+    assert waits == ([named] if idle == 0 else [])
+    assert not list(generation.path.rglob("*.claim*"))
