@@ -21,6 +21,8 @@ from grace.graphs.dense import DenseAssemblies
 from grace.graphs.encoding import GraphEncoding
 from grace.model.module import step_auc
 
+pytestmark = pytest.mark.numerics  # asserts on float results of torch arithmetic (.ci/kernels)
+
 CONFIG_ERRORS = (ConfigCompositionException, InstantiationException)
 """A bad value fails at composition (a type) or at instantiation (a range)."""
 
