@@ -28,8 +28,8 @@ from grace.cli.plan_search import order_entry, plan_verified
 from grace.cli.runner import TaskSettings
 from grace.data.atomic import write_json_atomic
 from grace.data.raw_format import read_assembly
-from grace.errors import UserError
-from grace.model.checkpoints import find_checkpoint, load_model
+from grace.model.checkpoints import load_model
+from grace.model.kept import find_checkpoint
 from grace.model.scoring import make_scorer
 from grace.planning.topk import FULL_TABLE_MAX_PARTS
 from grace.simulation.check import blockers, describe
@@ -80,9 +80,6 @@ def run(cfg: DictConfig) -> float | None:
     """Plan `task.assembly` with the model of `task.ckpt`; return its feasibility score."""
     out_dir = Path(cfg.paths.output_dir)
     begin = time.perf_counter()
-    for key, what in (("ckpt", "<run folder or .ckpt>"), ("assembly", "<raw folder or .spec>")):
-        if not cfg.task[key]:
-            raise UserError(f"task=plan needs {key}=; fix: add {key}={what}")
     ckpt = find_checkpoint(cfg.task.ckpt, int(cfg.task.fold))
     assembly, truth = read_assembly(cfg.task.assembly)
     module, kept = load_model(ckpt)

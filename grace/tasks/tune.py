@@ -150,8 +150,6 @@ def run(cfg: DictConfig) -> float:
     out_dir = Path(cfg.paths.output_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     cfg = trial_config(cfg, {"trainer.enable_progress_bar": False})  # one line per trial instead
-    if cfg.tune.folds is not None and cfg.tune.folds < 1:
-        raise UserError(f"tune.folds={cfg.tune.folds}: use a positive number or null (all)")
     params = parse_space(cfg.tune.space, cfg)
     storage = storage_url(cfg, out_dir)
     study = open_study(cfg, storage)
