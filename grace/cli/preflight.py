@@ -17,15 +17,18 @@ from __future__ import annotations
 
 import logging
 import os
+import shlex
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
 from hydra import compose, initialize_config_dir
+from hydra._internal.grammar.utils import escape_special_characters
 from hydra._internal.utils import get_args_parser
 from hydra.core.global_hydra import GlobalHydra
 from hydra.core.override_parser.overrides_parser import OverridesParser
+from hydra.core.override_parser.types import Quote, QuotedString
 from hydra.errors import HydraException
 from omegaconf import DictConfig, OmegaConf
 from omegaconf.errors import InterpolationKeyError, OmegaConfBaseException
@@ -170,6 +173,16 @@ def _quiet_logs() -> Iterator[None]:
         yield
     finally:
         logging.disable(logging.NOTSET)
+
+
+def shell_override(key: str, value: str) -> str:
+    """`key=value` as one shell word that Hydra reads back as `value`, whatever it holds
+    (spaces, commas, brackets, quotes): to be pasted into a command line."""
+    if "'" in value or '"' in value:
+        text = QuotedString(text=value, quote=Quote.single).with_quotes()
+    else:
+        text = escape_special_characters(value)
+    return shlex.quote(f"{key}={text}")
 
 
 def run_dir_overrides(argv: list[str]) -> list[str]:

@@ -4,6 +4,7 @@ grace/cli/preflight.py). One row per kind of bad input."""
 
 import os
 import re
+import shlex
 import subprocess
 import sys
 import time
@@ -11,8 +12,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.utils import instantiate
 
+import grace.__main__ as entry
 from grace.data.raw_format import export_raw
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -335,3 +338,15 @@ def test_a_probed_command_line_is_refused_in_one_line_before_any_work(tmp_path, 
     assert re.search(expected, lines[0]), lines[0]
     assert files(tmp_path) == before  # no run folder, no log, no cache
     assert not modules & set(HEAVY), f"{case}: heavy imports before the error ({seconds:.1f} s)"
+
+
+@pytest.mark.parametrize("folder", ["/tmp/runs/a b", "/tmp/x,y=z[1]", "/tmp/it's here"])
+def test_the_resume_hint_pastes_back_as_the_run_folder(capsys, folder):
+    """The line a stopped run prints is one shell word that Hydra reads back as the folder."""
+    with pytest.raises(SystemExit) as stop:
+        entry._interrupted(folder)
+    assert stop.value.code == 130
+    hint = capsys.readouterr().out.strip().split("to resume: the same command with ")[1]
+    (word,) = shlex.split(hint)
+    (override,) = OverridesParser.create().parse_overrides([word])
+    assert override.key_or_group == "paths.output_dir" and override.value() == folder
