@@ -28,13 +28,13 @@ from grace.cli.plan_search import order_entry, plan_verified
 from grace.cli.runner import TaskSettings
 from grace.data.atomic import write_json_atomic
 from grace.data.raw_format import read_assembly
-from grace.errors import UserError
-from grace.model.checkpoints import find_checkpoint, load_model
+from grace.model.checkpoints import load_model
+from grace.model.kept import find_checkpoint
 from grace.model.scoring import make_scorer
-from grace.planning.topk import FULL_TABLE_MAX_PARTS
-from grace.simulation.check import blockers, describe
+from grace.planning.topk import FULL_TABLE_MAX_PARTS, rank_sequences
+from grace.simulation.check import OrderChecker, blockers, describe
 from grace.visualisation.recording import write_recording
-from grace.visualisation.records import SequenceRecord, sequence_record
+from grace.visualisation.records import SequenceRecord, ranked_record
 
 log = logging.getLogger(__name__)
 
@@ -80,9 +80,6 @@ def run(cfg: DictConfig) -> float | None:
     """Plan `task.assembly` with the model of `task.ckpt`; return its feasibility score."""
     out_dir = Path(cfg.paths.output_dir)
     begin = time.perf_counter()
-    for key, what in (("ckpt", "<run folder or .ckpt>"), ("assembly", "<raw folder or .spec>")):
-        if not cfg.task[key]:
-            raise UserError(f"task=plan needs {key}=; fix: add {key}={what}")
     ckpt = find_checkpoint(cfg.task.ckpt, int(cfg.task.fold))
     assembly, truth = read_assembly(cfg.task.assembly)
     module, kept = load_model(ckpt)
@@ -95,19 +92,25 @@ def run(cfg: DictConfig) -> float | None:
         sources["load_seconds"] = load_seconds
         plan_verified(planner, assembly, truth, make_scorer(module), simulator, sources, out_dir)
         return None
+    budget = f"planner.max_expansions={planner.max_expansions}, planner.max_seconds="
+    budget += f"{planner.max_seconds}"
     if assembly.n_parts > FULL_TABLE_MAX_PARTS:
         log.warning(
             "%d parts: the top-k listing scores states lazily without completion bounds and "
-            "stops after planner.max_expansions=%s; planner=verified is the bounded planner",
-            assembly.n_parts, planner.max_expansions,
+            "stops at %s; planner=verified is the bounded planner", assembly.n_parts, budget,
         )  # fmt: skip
-    record = sequence_record(
-        "plan", assembly, make_scorer(module), simulator, truth, planner.k, planner.k,
-        planner.threshold, planner.max_expansions,
+    ranking = rank_sequences(
+        make_scorer(module), assembly, planner.k, planner.threshold, planner.max_expansions,
+        planner.max_seconds,
+    )  # fmt: skip
+    record = ranked_record(
+        "plan", ranking.ranked, ranking.scores, OrderChecker(simulator, assembly), truth,
+        planner.k, ranking.feasibility,
     )  # fmt: skip
     seconds = time.perf_counter() - start
     sources["seconds"] = seconds  # scoring, top-k, simulator checks and poses (model loaded)
     sources["load_seconds"] = load_seconds  # checkpoint, config, assembly, simulator
+    sources["stopped_by_budget"] = ranking.stopped
     result = plan_json(record, {**sources, "k": planner.k, "threshold": planner.threshold})
     write_json_atomic(out_dir / "plan.json", result)
     write_recording([record], out_dir / "plan.rrd", out_dir.name)
@@ -122,7 +125,9 @@ def run(cfg: DictConfig) -> float | None:
             verdict = f"fails at step {step + 1} (part {part}): {sim['reason']}"
         order = " ".join(str(p) for p in entry["sequence"])
         print(f"{entry['rank']:3d}. {order}  p={entry['probability']:.4g}  simulator: {verdict}")
-    if not result["sequences"]:
+    if ranking.stopped:
+        print(f"{len(ranking.ranked)} of {planner.k} sequences found within budget ({budget})")
+    elif not result["sequences"]:
         print(f"no complete sequence has every step scoring ≥ {planner.threshold}")
     print(
         f"planned and checked in {seconds:.2f} s (loading {load_seconds:.2f} s); "

@@ -130,11 +130,9 @@ def sequence_record(
     truth: GroundTruth | None,
     top_k: int,
     truth_orders: int,
-    threshold: float = 0.0,
-    max_expansions: int | None = None,
 ) -> SequenceRecord:
     """Rank, check and pose one assembly (the best sequence's cell at every step)."""
-    ranking = rank_sequences(scorer, assembly, top_k, threshold, max_expansions)
+    ranking = rank_sequences(scorer, assembly, top_k)
     checker = OrderChecker(simulator, assembly)
     return ranked_record(
         group, ranking.ranked, ranking.scores, checker, truth, truth_orders, ranking.feasibility
