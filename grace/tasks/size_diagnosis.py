@@ -32,6 +32,7 @@ from grace.evaluation.activation_scale import activation_scale
 from grace.evaluation.size_scores import held_out, step_scores, summarise
 from grace.evaluation.tables import size_diagnosis_table
 from grace.model.checkpoints import find_checkpoint, load_model
+from grace.model.grace_pyg import pyg_layers
 from grace.model.scoring import make_scorer
 from grace.visualisation.size_diagnosis import size_diagnosis_figure
 
@@ -70,7 +71,8 @@ def run(cfg: DictConfig) -> None:
     settings = cfg.task
     if settings.ckpt is None:
         raise UserError("task=size_diagnosis needs ckpt=<experiment run folder>")
-    module, kept = load_model(find_checkpoint(settings.ckpt, settings.fold))
+    # PyG's layers: the activation probe hooks the reference path's modules
+    module, kept = load_model(find_checkpoint(settings.ckpt, settings.fold), pyg_layers())
     if OmegaConf.select(kept, "task.name") != "experiment":
         raise UserError(
             f"ckpt={settings.ckpt}: not a fold of an experiment run; fix: pass the folder of a "
