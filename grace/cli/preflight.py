@@ -1,11 +1,13 @@
 """The command line checked before any work: one line per user error, nothing written.
 
 `python -m grace <overrides>` first composes the config with the light schemas (no torch, no
-Lightning: about a second) and runs grace/cli/checks.py on it, then composes it again with every
-schema once the heavy libraries are loaded. Only then does Hydra create the run folder and run
-the task, so a bad override, a value out of its range, an unusable data or run folder
-(grace/cli/values.py), a missing or malformed data folder or a protocol the data set cannot
-serve stops the run before anything exists on disk. Sweeps (`-m`) are checked per job instead.
+Lightning: about a second) and runs grace/cli/checks.py on it, then loads the schemas of the
+groups the task reads (grace/cli/schemas.py; all but the planner's need torch or Lightning) and,
+if the command line sets keys of groups the first compose left untyped, composes it again to
+check them. Only then does Hydra create the run folder and run the task, so a bad override, a
+value out of its range, an unusable data or run folder (grace/cli/values.py), a missing or
+malformed data folder or a protocol the data set cannot serve stops the run before anything
+exists on disk. Sweeps (`-m`) are checked per job instead.
 
 A user error prints as one line on stderr, exit code 2; `HYDRA_FULL_ERROR=1` or `debug=true`
 shows the traceback instead.
@@ -91,17 +93,23 @@ def run_overrides(argv: list[str]) -> list[str] | None:
     return list(args.overrides)
 
 
-def _compose(overrides: list[str], open_groups: set[str]) -> DictConfig:
-    """The config of `overrides`, without Hydra's own keys and without key overrides inside
-    `open_groups` (their placeholders have no keys to override)."""
+def _left_out(overrides: list[str], open_groups: set[str]) -> list[str]:
+    """The overrides a compose with `open_groups` left open leaves out: Hydra's own keys, and
+    keys inside those groups (their placeholders have no keys to override)."""
     parsed = OverridesParser.create().parse_overrides(overrides)
-    kept = []
+    out = []
     for text, override in zip(overrides, parsed, strict=True):
         key = override.key_or_group
         top = key.split(".")[0].split("/")[0]
         if top == "hydra" or (top in open_groups and "." in key):
-            continue
-        kept.append(text)
+            out.append(text)
+    return out
+
+
+def _compose(overrides: list[str], open_groups: set[str]) -> DictConfig:
+    """The config of `overrides` without those :func:`_left_out` of it."""
+    left_out = set(_left_out(overrides, open_groups))
+    kept = [o for o in overrides if o not in left_out]
     GlobalHydra.instance().clear()
     try:
         with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
@@ -119,13 +127,16 @@ def preflight(argv: list[str]) -> None:
     register_schemas(light=True)
     light = {path.split("/")[0] for path in light_schemas()}
     placeholders = {path.split("/")[1] for path in referenced_schemas()}
-    cfg = _compose(overrides, placeholders - light - {"simulator"})
+    open_groups = placeholders - light - {"simulator"}
+    cfg = _compose(overrides, open_groups)
     for warning in ignored_options(cfg, overrides):
         print(f"grace: warning: {warning}", file=sys.stderr)
     check_config(cfg)
     check_override_bounds(overrides)  # before the heavy imports
-    register_schemas()
-    check_bounds(_compose(overrides, set()))  # keys of the groups the light compose left open
+    register_schemas(run=cfg.task.run._target_)  # the schemas the task reads
+    if set(_left_out(overrides, open_groups)) - set(_left_out(overrides, set())):
+        # keys of the groups the light compose left open, now typed (none given: nothing new)
+        check_bounds(_compose(overrides, set()))
 
 
 def run_dir_overrides(argv: list[str]) -> list[str]:
