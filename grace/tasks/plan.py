@@ -19,7 +19,7 @@ import logging
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 from hydra.utils import instantiate
 from omegaconf import MISSING, DictConfig
@@ -31,10 +31,9 @@ from grace.data.raw_format import read_assembly
 from grace.errors import UserError
 from grace.model.checkpoints import find_checkpoint, load_model
 from grace.model.scoring import make_scorer
-from grace.planning.topk import FULL_TABLE_MAX_PARTS
-from grace.simulation.check import blockers, describe
-from grace.visualisation.recording import write_recording
-from grace.visualisation.records import SequenceRecord, sequence_record
+from grace.planning.topk import FULL_TABLE_MAX_PARTS, rank_sequences
+from grace.simulation.check import OrderChecker, blockers, describe
+from grace.visualisation.records import SequenceRecord, ranked_record, with_cell
 
 log = logging.getLogger(__name__)
 
@@ -43,9 +42,11 @@ log = logging.getLogger(__name__)
 class PlanSettings(TaskSettings):
     """Schema of `task=plan` (values in grace/conf/task/plan.yaml)."""
 
+    reads: ClassVar[tuple[str, ...] | None] = ("planner",)
     ckpt: str | None = MISSING  # a run folder (train or experiment) or a .ckpt file
     assembly: str | None = MISSING  # a raw assembly folder or an assembly.spec file
     fold: int = 0  # which fold's model of an experiment run folder
+    recording: bool = True  # plan.rrd, written after plan.json and the printed answer
 
 
 def plan_json(record: SequenceRecord, sources: dict[str, Any]) -> dict[str, Any]:
@@ -91,9 +92,11 @@ def run(cfg: DictConfig) -> float | None:
     start = time.perf_counter()
     load_seconds = start - begin
     sources = {"checkpoint": str(ckpt), "assembly": str(cfg.task.assembly)}
+    recording = bool(cfg.task.recording)
     if planner.verify:  # the default: grace/cli/plan_search.py
         sources["load_seconds"] = load_seconds
-        plan_verified(planner, assembly, truth, make_scorer(module), simulator, sources, out_dir)
+        scorer = make_scorer(module)
+        plan_verified(planner, assembly, truth, scorer, simulator, sources, out_dir, recording)
         return None
     if assembly.n_parts > FULL_TABLE_MAX_PARTS:
         log.warning(
@@ -101,16 +104,19 @@ def run(cfg: DictConfig) -> float | None:
             "stops after planner.max_expansions=%s; planner=verified is the bounded planner",
             assembly.n_parts, planner.max_expansions,
         )  # fmt: skip
-    record = sequence_record(
-        "plan", assembly, make_scorer(module), simulator, truth, planner.k, planner.k,
-        planner.threshold, planner.max_expansions,
+    ranking = rank_sequences(
+        make_scorer(module), assembly, planner.k, planner.threshold, planner.max_expansions
+    )
+    checker = OrderChecker(simulator, assembly)
+    record = ranked_record(
+        "plan", ranking.ranked, ranking.scores, checker, truth, planner.k, ranking.feasibility,
+        cell=False,
     )  # fmt: skip
     seconds = time.perf_counter() - start
-    sources["seconds"] = seconds  # scoring, top-k, simulator checks and poses (model loaded)
+    sources["seconds"] = seconds  # scoring, top-k and simulator checks (model loaded)
     sources["load_seconds"] = load_seconds  # checkpoint, config, assembly, simulator
     result = plan_json(record, {**sources, "k": planner.k, "threshold": planner.threshold})
     write_json_atomic(out_dir / "plan.json", result)
-    write_recording([record], out_dir / "plan.rrd", out_dir.name)
     feas = "n/a" if record.feasibility is None else f"{record.feasibility:.4f}"
     print(f"{assembly.name}: {assembly.n_parts} parts, feasibility score {feas}")
     for entry in result["sequences"]:
@@ -126,6 +132,13 @@ def run(cfg: DictConfig) -> float | None:
         print(f"no complete sequence has every step scoring ≥ {planner.threshold}")
     print(
         f"planned and checked in {seconds:.2f} s (loading {load_seconds:.2f} s); "
-        f"plan.json and plan.rrd in {out_dir}"
+        f"plan.json in {out_dir}",
+        flush=True,
     )
+    if recording:
+        from grace.visualisation.recording import write_recording  # rerun: only to record
+
+        record = with_cell(record, ranking.scores, checker, truth)
+        write_recording([record], out_dir / "plan.rrd", out_dir.name)
+        print(f"plan.rrd in {out_dir}")
     return record.feasibility
