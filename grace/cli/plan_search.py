@@ -3,8 +3,8 @@
 The policy orders the steps, the simulator checks each before it is taken: the user gets
 verified orders first, each with the network's probability and the simulator's verdict on every
 step, or "infeasible" (every order refuted) or "not found within budget", never an order the
-simulator refuses. Writes plan.json and prints the answer, then (`task.recording`) plan.rrd: the
-search and the verified order in the cell.
+simulator refuses. Writes plan.json and prints the answer, then (`task.recording=true`) plan.rrd:
+the search and the verified order in the cell.
 """
 
 from __future__ import annotations
@@ -118,7 +118,7 @@ def plan_verified(
     simulator: Simulator,
     sources: dict[str, Any],
     out_dir: Path,
-    recording: bool = True,
+    recording: bool,
 ) -> None:
     """Search `assembly`, write plan.json into `out_dir` and print the result; then, with
     `recording`, plan.rrd."""

@@ -6,7 +6,9 @@ best-first top-k, grace/planning/topk.py), each with its probability and step sc
 assembly's feasibility score (the bottleneck: the largest λ at which Algorithm 1 still finds a
 sequence, docs/metrics.md), and every listed sequence checked step by step in the simulator the
 model was trained with (verdict; at the first failing step the deciding rule and what blocks
-it). Writes plan.json and plan.rrd into the run folder.
+it). Writes plan.json into the run folder and prints the answer; with `task.recording=true`,
+plan.rrd after it (rerun is imported only then). Planning imports neither Lightning nor PyG
+(grace/model/checkpoints.py).
 
 The model is rebuilt from the `config.yaml` kept beside its checkpoint (<fold>/config.yaml, see
 grace/model/checkpoints.py), and the checkpoint's weights must fit it exactly: a checkpoint made for
@@ -46,7 +48,7 @@ class PlanSettings(TaskSettings):
     ckpt: str | None = MISSING  # a run folder (train or experiment) or a .ckpt file
     assembly: str | None = MISSING  # a raw assembly folder or an assembly.spec file
     fold: int = 0  # which fold's model of an experiment run folder
-    recording: bool = True  # plan.rrd, written after plan.json and the printed answer
+    recording: bool = False  # plan.rrd too, written after plan.json and the printed answer
 
 
 def plan_json(record: SequenceRecord, sources: dict[str, Any]) -> dict[str, Any]:
