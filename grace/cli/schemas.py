@@ -271,7 +271,7 @@ def heavy_schemas(run: str | None = None) -> dict[str, type]:
     settings' `reads`), so that a task reading no Lightning component (task=plan) does not wait
     seconds for Lightning to load."""
     tasks = task_schemas(run=run)
-    reads = None if run is None else next(iter(tasks.values())).reads
+    reads = next(iter(tasks.values())).reads if run is not None and tasks else None
     out: dict[str, type] = {}
     for group, build in GROUP_SCHEMAS.items():
         if reads is None or group in reads:
