@@ -1,13 +1,14 @@
 """The command line checked before any work: one line per user error, nothing written.
 
 `python -m grace <overrides>` first composes the config with the light schemas (no torch, no
-Lightning: about a second) and runs grace/cli/checks.py on it, then composes it again with every
-schema once the heavy libraries are loaded. Only then does Hydra create the run folder and run
-the task, so a bad override or interpolation, a value out of its range (grace/cli/ranges.py),
-an unusable data or run folder (grace/cli/values.py), a missing or malformed data folder, a
-protocol the data set cannot serve or a kept model or assembly task=plan cannot use
-(grace/cli/checks.py) stops the run before anything exists on disk. Sweeps (`-m`) are checked
-per job instead.
+Lightning: about a second) and runs grace/cli/checks.py on it, then loads the schemas of the
+groups the task reads (grace/cli/schemas.py; all but the planner's need torch or Lightning) and,
+if the command line sets keys of groups the first compose left untyped, composes it again to
+check them typed. Only then does Hydra create the run folder and run the task, so a bad override
+or interpolation, a value out of its range (grace/cli/ranges.py), an unusable data or run folder
+(grace/cli/values.py), a missing or malformed data folder, a protocol the data set cannot serve
+or a kept model or assembly task=plan cannot use (grace/cli/checks.py) stops the run before
+anything exists on disk. Sweeps (`-m`) are checked per job instead.
 
 A user error prints as one line on stderr, exit code 2; `HYDRA_FULL_ERROR=1` or `debug=true`
 shows the traceback instead.
@@ -28,7 +29,7 @@ from hydra._internal.grammar.utils import escape_special_characters
 from hydra._internal.utils import get_args_parser
 from hydra.core.global_hydra import GlobalHydra
 from hydra.core.override_parser.overrides_parser import OverridesParser
-from hydra.core.override_parser.types import Quote, QuotedString
+from hydra.core.override_parser.types import Override, Quote, QuotedString
 from hydra.errors import HydraException
 from omegaconf import DictConfig, OmegaConf
 from omegaconf.errors import InterpolationKeyError, OmegaConfBaseException
@@ -98,6 +99,17 @@ def run_overrides(argv: list[str]) -> list[str] | None:
     return list(args.overrides)
 
 
+def _top(override: Override) -> str:
+    """The config group or top-level key an override sets."""
+    return override.key_or_group.split(".")[0].split("/")[0]
+
+
+def _sets_keys_in(overrides: list[str], groups: set[str]) -> bool:
+    """Whether an override sets a key inside one of `groups`."""
+    parsed = OverridesParser.create().parse_overrides(overrides)
+    return any(_top(o) in groups and "." in o.key_or_group for o in parsed)
+
+
 def _compose(overrides: list[str], open_groups: set[str]) -> DictConfig:
     """The config of `overrides`, without Hydra's own keys. A key override inside one of
     `open_groups` (their placeholders hold the YAML's keys only) is forced in (`++`), so that its
@@ -105,11 +117,10 @@ def _compose(overrides: list[str], open_groups: set[str]) -> DictConfig:
     parsed = OverridesParser.create().parse_overrides(overrides)
     kept = []
     for text, override in zip(overrides, parsed, strict=True):
-        key = override.key_or_group
-        top = key.split(".")[0].split("/")[0]
+        top = _top(override)
         if top == "hydra":
             continue
-        if top in open_groups and "." in key:
+        if top in open_groups and "." in override.key_or_group:
             if override.is_delete():
                 continue
             text = "++" + text.lstrip("+")
@@ -154,14 +165,16 @@ def preflight(argv: list[str]) -> None:
     register_schemas(light=True)
     light = {path.split("/")[0] for path in light_schemas()}
     placeholders = {path.split("/")[1] for path in referenced_schemas()}
-    cfg = _compose(overrides, placeholders - light - {"simulator"})
+    open_groups = placeholders - light - {"simulator"}
+    cfg = _compose(overrides, open_groups)
     for warning in ignored_options(cfg, overrides):
         print(f"grace: warning: {warning}", file=sys.stderr)
     check_overrides(cfg, overrides)
     with _quiet_logs():
         check_config(cfg)  # before the heavy imports
-    register_schemas()
-    check_ranges(_compose(overrides, set()))  # keys only the groups' full schemas hold
+    register_schemas(run=cfg.task.run._target_)  # the schemas the task reads
+    if _sets_keys_in(overrides, open_groups):
+        check_ranges(_compose(overrides, set()))  # those keys typed, by the groups' schemas
 
 
 @contextmanager

@@ -6,7 +6,9 @@ best-first top-k, grace/planning/topk.py), each with its probability and step sc
 assembly's feasibility score (the bottleneck: the largest λ at which Algorithm 1 still finds a
 sequence, docs/metrics.md), and every listed sequence checked step by step in the simulator the
 model was trained with (verdict; at the first failing step the deciding rule and what blocks
-it). Writes plan.json and plan.rrd into the run folder.
+it). Writes plan.json into the run folder and prints the answer; with `task.recording=true`,
+plan.rrd after it (rerun is imported only then). Planning imports neither Lightning nor PyG
+(grace/model/checkpoints.py).
 
 The model is rebuilt from the `config.yaml` kept beside its checkpoint (<fold>/config.yaml, see
 grace/model/checkpoints.py), and the checkpoint's weights must fit it exactly: a checkpoint made for
@@ -19,7 +21,7 @@ import logging
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 from hydra.utils import instantiate
 from omegaconf import MISSING, DictConfig
@@ -33,8 +35,7 @@ from grace.model.kept import find_checkpoint
 from grace.model.scoring import make_scorer
 from grace.planning.topk import FULL_TABLE_MAX_PARTS, rank_sequences
 from grace.simulation.check import OrderChecker, blockers, describe
-from grace.visualisation.recording import write_recording
-from grace.visualisation.records import SequenceRecord, ranked_record
+from grace.visualisation.records import SequenceRecord, ranked_record, with_cell
 
 log = logging.getLogger(__name__)
 
@@ -43,9 +44,11 @@ log = logging.getLogger(__name__)
 class PlanSettings(TaskSettings):
     """Schema of `task=plan` (values in grace/conf/task/plan.yaml)."""
 
+    reads: ClassVar[tuple[str, ...] | None] = ("planner",)
     ckpt: str | None = MISSING  # a run folder (train or experiment) or a .ckpt file
     assembly: str | None = MISSING  # a raw assembly folder or an assembly.spec file
     fold: int = 0  # which fold's model of an experiment run folder
+    recording: bool = False  # plan.rrd too, written after plan.json and the printed answer
 
 
 def plan_json(record: SequenceRecord, sources: dict[str, Any]) -> dict[str, Any]:
@@ -88,9 +91,11 @@ def run(cfg: DictConfig) -> float | None:
     start = time.perf_counter()
     load_seconds = start - begin
     sources = {"checkpoint": str(ckpt), "assembly": str(cfg.task.assembly)}
+    recording = bool(cfg.task.recording)
     if planner.verify:  # the default: grace/cli/plan_search.py
         sources["load_seconds"] = load_seconds
-        plan_verified(planner, assembly, truth, make_scorer(module), simulator, sources, out_dir)
+        scorer = make_scorer(module)
+        plan_verified(planner, assembly, truth, scorer, simulator, sources, out_dir, recording)
         return None
     budget = f"planner.max_expansions={planner.max_expansions}, planner.max_seconds="
     budget += f"{planner.max_seconds}"
@@ -103,17 +108,17 @@ def run(cfg: DictConfig) -> float | None:
         make_scorer(module), assembly, planner.k, planner.threshold, planner.max_expansions,
         planner.max_seconds,
     )  # fmt: skip
+    checker = OrderChecker(simulator, assembly)
     record = ranked_record(
-        "plan", ranking.ranked, ranking.scores, OrderChecker(simulator, assembly), truth,
-        planner.k, ranking.feasibility,
+        "plan", ranking.ranked, ranking.scores, checker, truth, planner.k, ranking.feasibility,
+        cell=False,
     )  # fmt: skip
     seconds = time.perf_counter() - start
-    sources["seconds"] = seconds  # scoring, top-k, simulator checks and poses (model loaded)
+    sources["seconds"] = seconds  # scoring, top-k and simulator checks (model loaded)
     sources["load_seconds"] = load_seconds  # checkpoint, config, assembly, simulator
     sources["stopped_by_budget"] = ranking.stopped
     result = plan_json(record, {**sources, "k": planner.k, "threshold": planner.threshold})
     write_json_atomic(out_dir / "plan.json", result)
-    write_recording([record], out_dir / "plan.rrd", out_dir.name)
     feas = "n/a" if record.feasibility is None else f"{record.feasibility:.4f}"
     print(f"{assembly.name}: {assembly.n_parts} parts, feasibility score {feas}")
     for entry in result["sequences"]:
@@ -131,6 +136,13 @@ def run(cfg: DictConfig) -> float | None:
         print(f"no complete sequence has every step scoring ≥ {planner.threshold}")
     print(
         f"planned and checked in {seconds:.2f} s (loading {load_seconds:.2f} s); "
-        f"plan.json and plan.rrd in {out_dir}"
+        f"plan.json in {out_dir}",
+        flush=True,
     )
+    if recording:
+        from grace.visualisation.recording import write_recording  # rerun: only to record
+
+        record = with_cell(record, ranking.scores, checker, truth)
+        write_recording([record], out_dir / "plan.rrd", out_dir.name)
+        print(f"plan.rrd in {out_dir}")
     return record.feasibility

@@ -28,10 +28,10 @@ import numpy as np
 import optuna
 import sqlalchemy.exc
 from hydra.utils import instantiate
-from lightning.pytorch import seed_everything
 from omegaconf import MISSING, DictConfig, OmegaConf
 from optuna_integration import PyTorchLightningPruningCallback
 
+from grace.cli.determinism import seed_all
 from grace.cli.folds import protocol_folds
 from grace.cli.runner import TaskSettings, task_overrides
 from grace.cli.tune_report import write_report
@@ -104,7 +104,7 @@ def _objective(cfg: DictConfig, params: list[Param], out_dir: Path, prune: bool)
             callbacks: list[pl.Callback] = [kept]
             if prune and position == 0:
                 callbacks.append(PyTorchLightningPruningCallback(trial, monitor=metric))
-            seed_everything(int(trial_cfg.seed) + fold.index, workers=True, verbose=False)
+            seed_all(int(trial_cfg.seed) + fold.index)
             instantiate(trial_cfg.task.fit)(
                 trial_cfg,
                 [data[i] for i in fold.train],

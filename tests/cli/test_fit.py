@@ -180,3 +180,7 @@ def test_a_kept_checkpoint_plans_again_under_another_score(cfg_factory, samples,
     OmegaConf.save(kept, tmp_path / "run" / "config.yaml")
     older, _ = load_model(tmp_path / "run" / "checkpoints" / "best.ckpt")
     assert older.net.cfg.score is Score.geometric
+    # rebuilt without PyG (parameter holders the fast path reads): the same scores, bit for bit
+    assert not isinstance(older, GraceModule) and "GATv2Weights" in repr(older.net)
+    scores = make_scorer(again)(sample.assembly, sample.truth.states)
+    assert np.array_equal(make_scorer(older)(sample.assembly, sample.truth.states), scores)

@@ -8,11 +8,10 @@ from torch.utils.data import DataLoader
 
 from grace.domain.assembly import full_mask
 from grace.errors import UserError
+from grace.graphs.batches import collate_dense, collate_graphs
 from grace.graphs.datamodule import (
     AssemblyBatchSampler,
     StateDataModule,
-    collate_dense,
-    collate_graphs,
     state_masks,
     step_weights,
     training_states,
