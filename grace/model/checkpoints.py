@@ -45,6 +45,11 @@ class KeptModel(torch.nn.Module):
     def device(self) -> torch.device:
         return next(self.net.parameters()).device
 
+    @property
+    def dtype(self) -> torch.dtype:
+        """The weights' dtype, as LightningModule.dtype gives it, so scoring reads either."""
+        return next(self.net.parameters()).dtype
+
 
 def load_model(ckpt: Path, layers: Layers | None = None) -> tuple[KeptModel, DictConfig]:
     """The model rebuilt from the config kept beside `ckpt`, with the checkpoint's weights.
