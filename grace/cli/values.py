@@ -44,7 +44,7 @@ def check_ranges(cfg: DictConfig) -> None:
             kept = [number(v) for v in items if bound.holds(v)] or [number(bound.suggestion())]
             what, fix = f"{key}={items}: {bad[0]} is", f"[{','.join(kept)}]"
         else:
-            what, fix = f"{key}={value} is", number(bound.suggestion())
+            what, fix = f"{key}={number(value)} is", number(bound.suggestion())
         raise UserError(f"{what} outside {bound.interval()}; fix: {key}={fix} ({bound.why})")
 
 

@@ -1,17 +1,26 @@
 """Bad input through the real entry point: one line naming what, where and the fix, exit code 2,
 nothing written, and no torch or Lightning loaded first (the checks run in about a second;
-grace/cli/preflight.py). One row per kind of bad input."""
+grace/cli/preflight.py). One row per kind of bad input.
+
+Every row runs in the default suite through `grace.__main__.main` in this process (`here`), and
+as a real command in a fresh interpreter (`command`), which alone can tell that no heavy module
+was imported before the error: one row per table by default, every row with `-m slow` (a
+command costs a second of interpreter start-up and imports each).
+"""
 
 import os
 import re
 import shlex
+import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 import pytest
+from hydra.core.global_hydra import GlobalHydra
 from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.utils import instantiate
 
@@ -43,6 +52,45 @@ def grace(
         line.split("|")[-1].strip().split(".")[0] for line in lines if line.startswith("import")
     }
     return done.returncode, ours + done.stdout.splitlines(), modules, seconds
+
+
+def modes(table: dict) -> list:
+    """(case, mode) for every row of `table`: `here` always, `command` for the first row by
+    default and for the others under `-m slow` (module docstring)."""
+    slow = pytest.mark.slow
+    return [
+        *(pytest.param(case, "here", id=f"{case}-here") for case in table),
+        *(
+            pytest.param(case, "command", id=f"{case}-command", marks=() if i == 0 else slow)
+            for i, case in enumerate(table)
+        ),
+    ]
+
+
+@pytest.fixture
+def refused(monkeypatch, capsys) -> Callable[..., tuple[int, list[str], set[str], float]]:
+    """`refused(mode, cwd, *overrides, env=...)`: as :func:`grace` for mode `command`; for mode
+    `here`, `grace.__main__.main` in this process (its modules: none, not observable here)."""
+
+    def run(mode: str, cwd: Path, *overrides: str, env: dict[str, str] | None = None):
+        if mode == "command":
+            return grace(cwd, *overrides, env=env)
+        monkeypatch.chdir(cwd)
+        for name, value in (env or {}).items():
+            monkeypatch.setenv(name, value)
+        monkeypatch.setattr(sys, "argv", ["grace", *overrides])
+        handler, start = signal.getsignal(signal.SIGTERM), time.perf_counter()
+        try:
+            with pytest.raises(SystemExit) as stop:
+                entry.main()
+        finally:
+            signal.signal(signal.SIGTERM, handler)
+            GlobalHydra.instance().clear()
+        out = capsys.readouterr()
+        lines = out.err.splitlines() + out.out.splitlines()
+        return stop.value.code, lines, set(), time.perf_counter() - start
+
+    return run
 
 
 def files(folder: Path) -> set[Path]:
@@ -110,8 +158,8 @@ CASES = {
 }
 
 
-@pytest.mark.parametrize("case", CASES, ids=list(CASES))
-def test_bad_input_is_one_line_exit_2_and_nothing_written(tmp_path, raw, case):
+@pytest.mark.parametrize(("case", "mode"), modes(CASES))
+def test_bad_input_is_one_line_exit_2_and_nothing_written(tmp_path, raw, refused, case, mode):
     overrides, expected = CASES[case]
     if case == "malformed raw folder":
         spec = _spec(raw)
@@ -119,7 +167,9 @@ def test_bad_input_is_one_line_exit_2_and_nothing_written(tmp_path, raw, case):
         spec.write_text("\n".join([lines[0], lines[1].replace(" 0;", " 2;", 1), *lines[2:]]))
     before = files(tmp_path)
     args = [o.replace("{raw}", str(raw)) for o in overrides]
-    code, lines, modules, seconds = grace(tmp_path, *args, f"paths.data_dir={tmp_path / 'd'}")
+    code, lines, modules, seconds = refused(
+        mode, tmp_path, *args, f"paths.data_dir={tmp_path / 'd'}"
+    )
     assert code == 2, lines
     assert len(lines) == 1, lines
     assert lines[0].startswith("grace: error: ")
@@ -140,7 +190,7 @@ VALUES = {
     "no epochs": (("trainer.max_epochs=0",), r"trainer.max_epochs=0 is outside \[1, ∞\); fix: "),
     "dead-end target": (
         ("datamodule.dead_end_target=2.0",),
-        r"datamodule.dead_end_target=2.0 is outside \[0, 0.5\); fix: ",
+        r"datamodule.dead_end_target=2 is outside \[0, 0.5\); fix: ",
     ),
     "size beyond the cell's slots": (
         ("dataset.sizes={40: 2}",),
@@ -184,8 +234,8 @@ def read_only(tmp_path) -> Path:
     return folder
 
 
-@pytest.mark.parametrize("case", VALUES, ids=list(VALUES))
-def test_a_bad_value_is_refused_before_any_work(tmp_path, read_only, case):
+@pytest.mark.parametrize(("case", "mode"), modes(VALUES))
+def test_a_bad_value_is_refused_before_any_work(tmp_path, read_only, refused, case, mode):
     arguments, expected = VALUES[case]
     (tmp_path / "file").write_text("not a folder\n")
     before = files(tmp_path)
@@ -197,7 +247,7 @@ def test_a_bad_value_is_refused_before_any_work(tmp_path, read_only, case):
     overrides = [a for a in arguments if not a.startswith("GRACE_DATA_DIR=")]
     if not env and not any(a.startswith("paths.data_dir=") for a in overrides):
         overrides.append(f"paths.data_dir={tmp_path / 'd'}")
-    code, lines, modules, seconds = grace(tmp_path, *overrides, env=env)
+    code, lines, modules, seconds = refused(mode, tmp_path, *overrides, env=env)
     assert code == 2, lines
     assert len(lines) == 1 and lines[0].startswith("grace: error: "), lines
     assert re.search(expected, lines[0]), lines[0]
@@ -325,14 +375,18 @@ def plan_inputs(tmp_path, raw) -> dict[str, str]:
     return places
 
 
-@pytest.mark.parametrize("case", PROBE, ids=list(PROBE))
-def test_a_probed_command_line_is_refused_in_one_line_before_any_work(tmp_path, plan_inputs, case):
+@pytest.mark.parametrize(("case", "mode"), modes(PROBE))
+def test_a_probed_command_line_is_refused_in_one_line_before_any_work(
+    tmp_path, plan_inputs, refused, case, mode
+):
     arguments, expected = PROBE[case]
     for place, value in plan_inputs.items():
         arguments = tuple(a.replace(place, value) for a in arguments)
         expected = expected.replace(place, re.escape(value))
     before = files(tmp_path)
-    code, lines, modules, seconds = grace(tmp_path, *arguments, f"paths.data_dir={tmp_path}/d")
+    code, lines, modules, seconds = refused(
+        mode, tmp_path, *arguments, f"paths.data_dir={tmp_path}/d"
+    )
     assert code == 2, lines
     assert len(lines) == 1 and lines[0].startswith("grace: error: "), lines
     assert re.search(expected, lines[0]), lines[0]

@@ -112,6 +112,7 @@ def test_assemblies_do_not_depend_on_chunking(fake_cfg, tmp_path):
     assert subset == [s for s in small if s.size == 4][:2]
 
 
+@pytest.mark.slow  # a fast twin covers the behaviour; this one is end to end
 def test_two_shards_merge_to_the_unsharded_data_set(fake_cfg, tmp_path):
     whole = fake_cfg(f"paths.data_dir={tmp_path / 'whole'}")
     generate(whole)

@@ -3,9 +3,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
+@pytest.mark.slow  # a fast twin covers the behaviour; this one is end to end
 def test_the_comparison_labels_the_same_frames_with_every_simulator(tmp_path):
     out = tmp_path / "run"
     subprocess.run(

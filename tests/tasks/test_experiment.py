@@ -69,6 +69,7 @@ def test_intra_experiment_writes_results(tmp_path, fake_cfg):
     assert (tmp_path / "p_at_k.png").stat().st_size > 0
 
 
+@pytest.mark.slow  # a fast twin covers the behaviour; this one is end to end
 def test_parallel_folds_give_the_same_results(tmp_path, fake_cfg):
     serial = fake_cfg(tmp_path / "serial", "intra")
     parallel = fake_cfg(tmp_path / "parallel", "intra", "task.fold_jobs=2")
@@ -77,6 +78,7 @@ def test_parallel_folds_give_the_same_results(tmp_path, fake_cfg):
     assert a["per_size"] == b["per_size"] and a["baselines"] == b["baselines"]
 
 
+@pytest.mark.slow  # a fast twin covers the behaviour; this one is end to end
 def test_inter_sized_protocols_use_top_level_sizes(tmp_path, fake_cfg):
     run(fake_cfg(tmp_path / "m2o", "many_to_one", "test_size=5"))
     m2o = json.loads((tmp_path / "m2o" / "results.json").read_text())
@@ -112,6 +114,7 @@ def test_python_m_grace_smoke_end_to_end(tmp_path):
     assert (out / "results.md").exists() and (out / "pr_curves.png").exists()
 
 
+@pytest.mark.slow  # a fast twin covers the behaviour; this one is end to end
 def test_each_fold_is_seeded_by_seed_plus_its_index(tmp_path, fake_cfg):
     """So a fold trains alike whichever folds ran before it in the same process."""
     experiment_fakes.SEEDS.clear()

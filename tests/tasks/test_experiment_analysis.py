@@ -29,6 +29,7 @@ def test_experiment_writes_strict_figures_floors_failures_and_feasibility(tmp_pa
     assert "## Feasibility (GRACE)" in md and "## Folds" in md
 
 
+@pytest.mark.slow  # a fast twin covers the behaviour; this one is end to end
 def test_a_fold_no_better_than_the_floors_is_flagged(tmp_path, fake_cfg):
     cfg = fake_cfg(tmp_path, "intra")
     # "trained" into a constant

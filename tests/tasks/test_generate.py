@@ -81,6 +81,7 @@ def test_generate_smoke_end_to_end(cfg_factory, tmp_path):
     assert exported.assembly == samples[-1].assembly and exported.truth == samples[-1].truth
 
 
+@pytest.mark.slow  # a fast twin covers the behaviour; this one is end to end
 def test_sharded_runs_write_stats_once_complete(cfg_factory, fake_simulator):
     def cfg_for(shard: int):
         cfg = cfg_factory(
@@ -115,6 +116,7 @@ def test_generate_rejects_raw_dataset(cfg_factory):
         run(cfg_factory("task=generate", "dataset=raw", *UNUSED))
 
 
+@pytest.mark.slow  # a fast twin covers the behaviour; this one is end to end
 def test_real_simulator_bytes_do_not_depend_on_workers(cfg_factory, tmp_path):
     def shard_bytes(workers: int) -> list[bytes]:
         cfg = cfg_factory(

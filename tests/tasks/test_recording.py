@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 from omegaconf import open_dict
 from recording_fakes import wrong_first_part
 
@@ -54,6 +55,7 @@ def test_experiment_recording_holds_sequences_cell_and_the_known_failure(
     assert f"{rrd}: 24 assemblies" in printed and "no display" in printed
 
 
+@pytest.mark.slow  # a fast twin covers the behaviour; this one is end to end
 def test_no_recording_when_switched_off(tmp_path, fake_cfg):
     out = tmp_path / "run"
     run(fake_cfg(out, "intra", "task.recording.per_size=0"))

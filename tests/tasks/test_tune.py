@@ -72,6 +72,7 @@ def test_best_yaml_loads_and_reproduces_the_best_trial(tmp_path, cfg_factory):
         assert loaded[group] == expected[group], group
 
 
+@pytest.mark.slow  # a fast twin covers the behaviour; this one is end to end
 def test_a_second_process_adds_to_the_same_study(tmp_path, cfg_factory):
     cfg = cfg_factory("task=tune", *FAKES, *SMALL, "tune.n_trials=3")
     run(cfg)
@@ -187,6 +188,7 @@ def test_tune_reads_the_selection_data_set_and_experiments_the_evaluation_one(cf
     assert cfg_factory("task=tune", "dataset.seed=0").dataset.seed == 0
 
 
+@pytest.mark.slow  # a fast twin covers the behaviour; this one is end to end
 def test_processes_opening_one_new_study_at_once_all_get_it(tmp_path, cfg_factory):
     """Three openers of one new SQLite study at the same moment (threads, each with its own
     connection, as processes have): every one gets the study, in each of ten tries.
