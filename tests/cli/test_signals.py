@@ -45,7 +45,10 @@ def stop(run: subprocess.Popen, group: bool) -> tuple[int, str]:
     return run.returncode, out + err
 
 
-@pytest.mark.parametrize("delay", [0.5, 2.0, pytest.param(4.0, marks=pytest.mark.slow)])
+@pytest.mark.parametrize(
+    "delay",
+    [0.5, pytest.param(2.0, marks=pytest.mark.slow), pytest.param(4.0, marks=pytest.mark.slow)],
+)
 def test_sigterm_to_the_group_early_is_a_clean_stop(tmp_path, delay):
     """Early: in the imports (Python's own SIGTERM: 143, silent), the preflight, Hydra's
     composition or the task's start; which one depends on the machine's speed."""

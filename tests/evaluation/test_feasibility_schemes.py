@@ -80,6 +80,7 @@ def test_no_classifier_by_default(cfg_factory):
     assert OmegaConf.select(cfg_factory(), "classifier.estimator") is None
 
 
+@pytest.mark.slow  # end to end; its parts have fast tests of their own
 def test_flow_scores_held_out_feasible_above_a_shifted_set():
     # Synthetic "embeddings": feasible ones on a curved 2-d manifold in 6-d with noise; the
     # shifted set leaves the manifold by a small offset that no single coordinate reveals.

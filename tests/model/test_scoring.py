@@ -53,7 +53,8 @@ def test_scorer_in_float32_stays_near_float64(samples):
         )
 
 
-@pytest.mark.parametrize("backend", ["eager", pytest.param("inductor", marks=pytest.mark.slow)])
+@pytest.mark.slow  # torch.compile: seconds of tracing even with the eager backend
+@pytest.mark.parametrize("backend", ["eager", "inductor"])
 def test_the_compiled_path_scores_as_the_fast_path(samples, backend):
     """Traced by dynamo (`eager`: the plumbing, in seconds) or compiled to C++ (`inductor`):
     one state and many, on assemblies of several sizes (dynamic shapes, no recompiling per

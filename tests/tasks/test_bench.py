@@ -15,9 +15,10 @@ def _bench_cfg(cfg_factory, fake_simulator, *overrides: str):
     return cfg
 
 
+@pytest.mark.slow  # a benchmark's figures: two trainings side by side
 @pytest.mark.parametrize(
     ("model", "params"),
-    [("grace", 51_701), pytest.param("grace_geometric", 137_178, marks=pytest.mark.slow)],
+    [("grace", 51_701), ("grace_geometric", 137_178)],
 )
 def test_bench_writes_side_by_side_figures(cfg_factory, fake_simulator, model, params):
     """The paper's network and the default (two outputs: the benchmark trains with its loss)."""

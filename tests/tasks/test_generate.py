@@ -57,6 +57,7 @@ def assert_stats_schema(stats: dict, sizes: dict[int, int]) -> None:
         assert entry["states"] >= entry["assemblies"]
 
 
+@pytest.mark.slow  # end to end; CI's installed-copy run does it again
 def test_generate_smoke_end_to_end(cfg_factory, tmp_path):
     """`python -m grace task=generate scale=smoke` with the real simulator, in tmp_path."""
     cfg = cfg_factory(

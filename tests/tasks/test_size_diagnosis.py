@@ -68,6 +68,7 @@ def test_probe_measures_and_removes_its_hooks(cfg_factory, samples):
     del probe
 
 
+@pytest.mark.slow  # end to end; its parts have fast tests of their own
 def test_size_diagnosis_end_to_end(cfg_factory, fake_simulator, tmp_path):
     run_dir = tmp_path / "run"
     experiment(

@@ -51,6 +51,7 @@ def test_tune_writes_a_study_of_n_trials_and_its_report(tmp_path, cfg_factory):
     assert "optuna-dashboard sqlite:///" in (out / "summary.md").read_text()
 
 
+@pytest.mark.slow  # a second tuning run to compare with
 def test_best_yaml_loads_and_reproduces_the_best_trial(tmp_path, cfg_factory):
     base = ("task=tune", *FAKES, *SMALL, "tune.n_trials=3")
     cfg = cfg_factory(*base)
