@@ -252,6 +252,28 @@ def nonlocal_block(truth: GroundTruth, fixation: Fixation, blockers: list[np.nda
     return False
 
 
+def orders(
+    assembly: Assembly,
+    options: list[list[PlacementOption]],
+    touch: np.ndarray,
+    rules: Collection[str] = RULES,
+    first: int | None = None,
+) -> GroundTruth:
+    """The ground truth of `label` alone: every feasible order under the active `rules`, only
+    those starting with part `first` if given."""
+    fixation = Fixation.of(assembly, touch)
+    active = [r for r in RULES if r in rules]
+    blockers = OptionTable.build(assembly, options, fixation).blockers(active)
+    check = rule_check(fixation, blockers, "fixation" in active)
+    if first is None:
+        return GroundTruth.explore_many(assembly.n_parts, check)
+
+    def starting(states: np.ndarray, part: int) -> np.ndarray:
+        return check(states, part) & ((states != 0) | (part == first))
+
+    return GroundTruth.explore_many(assembly.n_parts, starting)
+
+
 def label(
     assembly: Assembly,
     options: list[list[PlacementOption]],
