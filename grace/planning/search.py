@@ -26,8 +26,9 @@ a state without a check, and, forward, drops every state holding the parts witho
 (no order completes from there); it takes the parts placed earliest, so that the search jumps
 back as far as possible. The search stops when `k` verified orders exist (the `k` most probable
 of them are returned), when the start is dead (the assembly is infeasible: every order was
-refuted), or when its budget of checks or seconds runs out ("not found within budget"). Which
-unchecked step comes next is the frontier's choice:
+refuted, by the search or, before it, by the orders every order must keep, `precedence`:
+grace/planning/precedence.py), or when its budget of checks or seconds runs out ("not found
+within budget"). Which unchecked step comes next is the frontier's choice:
 
 - `greedy`: depth first; in the deepest open state, its best-scored unchecked step. With a good
   policy this walks straight to the goal (N checks for N parts) and backtracks only where a
@@ -53,9 +54,14 @@ import numpy as np
 from grace.domain.assembly import Assembly, full_mask, mask_to_parts
 from grace.domain.orders import GroundTruth
 from grace.planning.fixation_prior import FixationPrior
+from grace.planning.precedence import refuted
 from grace.planning.sequences import Scorer
-from grace.planning.step_checks import StepOracle, blocking_set
+from grace.planning.step_checks import BlockerSteps, StepOracle, blocking_set
 from grace.planning.topk import Ranked, StateScores, lazy_scores
+
+Refutation = Callable[[], int | None]
+"""`refute()`: a part no order can place, proved without a search (grace/planning/
+precedence.py), or None."""
 
 StepPrior = Callable[[int, int], bool]
 """`prior(before, part)`: whether the step placing `part` into the state `before` is worth
@@ -181,6 +187,7 @@ class VerifiedSearch:
     frontier: Frontier = Frontier.greedy
     learn_blocks: bool = True
     fixation_prior: bool = True
+    precedence: bool = True
     touch_tolerance: float = 0.5
     max_checks: int | None = None
     max_seconds: float | None = None
@@ -188,23 +195,30 @@ class VerifiedSearch:
     verify = True  # the task layer lists these orders as verified (the top-k listing does not)
 
     def search(
-        self, scores: StateScores, oracle: StepOracle, prior: StepPrior | None = None
+        self,
+        scores: StateScores,
+        oracle: StepOracle,
+        prior: StepPrior | None = None,
+        refute: Refutation | None = None,
     ) -> SearchResult:
         """Search one assembly: `scores(state)` gives the policy's score of each step out of
         `state` in this search's direction, `oracle` the simulator's step checks; the steps
-        `prior(before, part)` allows are tried first."""
-        return _Search(self, scores, oracle, prior).run()
+        `prior(before, part)` allows are tried first; `refute()`, asked first, may prove the
+        assembly infeasible without a step check."""
+        return _Search(self, scores, oracle, prior, refute).run()
 
     def plan(self, scorer: Scorer, assembly: Assembly, oracle: StepOracle) -> SearchResult:
         """Search `assembly` with the policy `scorer` (its states scored lazily, forward one
         forward pass per state, backward one batched call per state), with the fixation prior
         (grace/planning/fixation_prior.py) if `fixation_prior`."""
-        prior = None
-        if self.fixation_prior:
-            prior = FixationPrior.of(assembly, self.touch_tolerance).allows
+        fixation = FixationPrior.of(assembly, self.touch_tolerance)
+        prior = fixation.allows if self.fixation_prior else None
+        refute = None
+        if self.precedence and isinstance(oracle, BlockerSteps):
+            refute = lambda: refuted(oracle, fixation)  # noqa: E731
         if self.direction == Direction.forward:
-            return self.search(lazy_scores(scorer, assembly), oracle, prior)
-        return self.search(removal_scores(scorer, assembly), oracle, prior)
+            return self.search(lazy_scores(scorer, assembly), oracle, prior, refute)
+        return self.search(removal_scores(scorer, assembly), oracle, prior, refute)
 
 
 class _Search:
@@ -216,9 +230,11 @@ class _Search:
         scores: StateScores,
         oracle: StepOracle,
         prior: StepPrior | None,
+        refute: Refutation | None = None,
     ) -> None:
         self.config = config
         self.prior = prior
+        self.refute = refute
         self.forward = config.direction == Direction.forward
         self.scores = scores
         self.oracle = oracle
@@ -433,6 +449,8 @@ class _Search:
     def run(self) -> SearchResult:
         start = time.perf_counter()
         root = self._expand(self.start_state, 0.0)
+        if self.refute is not None and self.refute() is not None:
+            self._kill(root)  # proved infeasible without a step check
         out_of_budget = False
         while self.heap and not root.dead and not self._enough():
             *_, state = heapq.heappop(self.heap)
