@@ -72,15 +72,17 @@ class StructureGenerator:
         n_parts: int,
         rng: np.random.Generator,
         section_ok: Callable[[Assembly, int], bool] | None = None,
+        frame_ok: Callable[[Assembly], bool] | None = None,
     ) -> Assembly:
         """A connected frame of `n_parts` parts, centred and canonically named; above
         `section_parts`, built in sections whose pieces `section_ok(piece, head)` accepts
-        (grace/simulation/sections.py)."""
+        and, if given, that `frame_ok` accepts as the frame grows (grace/simulation/
+        sections.py)."""
         if n_parts < 1:
             raise UserError(f"generate: n_parts must be ≥ 1, got {n_parts}")
         cfg = self.cfg
         if cfg.section_parts and n_parts > cfg.section_parts:
-            return self._sectioned(n_parts, rng, section_ok or (lambda *_: True))
+            return self._sectioned(n_parts, rng, section_ok or (lambda *_: True), frame_ok)
         for _ in range(cfg.max_restarts):
             parts = self._grow(n_parts, rng)
             if parts is not None:
@@ -91,7 +93,11 @@ class StructureGenerator:
         )
 
     def _sectioned(
-        self, n_parts: int, rng: np.random.Generator, section_ok: Callable[[Assembly, int], bool]
+        self,
+        n_parts: int,
+        rng: np.random.Generator,
+        section_ok: Callable[[Assembly, int], bool],
+        frame_ok: Callable[[Assembly], bool] | None,
     ) -> Assembly:
         cfg = self.cfg
         sizes = section_sizes(n_parts, cfg.section_parts)
@@ -106,6 +112,7 @@ class StructureGenerator:
                 self.tolerance,
                 cfg.max_restarts,
                 cfg.frame_area[0] if cfg.frame_area else np.inf,
+                None if frame_ok is None else lambda parts: frame_ok(self._finish(parts)),
             )
             if parts is not None and self._within(parts, cfg.frame_area):
                 return self._finish(parts)

@@ -112,6 +112,7 @@ def sectioned_frame(
     tolerance: float,
     tries: int,
     width: float = np.inf,
+    frame_ok: Callable[[list[Part]], bool] | None = None,
 ) -> list[Part] | None:
     """A frame of sections of `sizes` parts (see the module docstring); `grow(n)` grows one
     section (None if it failed). The frame is built section by section, each from its first
@@ -121,7 +122,9 @@ def sectioned_frame(
     (`head` the size of what comes before the new link): whether an order of the piece starts
     with its part 0 and passes the state where its first `head` parts are placed (asked
     last: the simulator's ground truth costs most). Each section gets `tries` attempts; the
-    frame stays at most `width` mm wide (x). None if a section never makes it."""
+    frame stays at most `width` mm wide (x); `frame_ok`, if given, must accept the frame as
+    it grows, after each section (asked after `section_ok`). None if a section never makes
+    it."""
     frame: list[Part] = []
     last: list[Part] = []  # the previous section, from its first part (its link, if any) on
     for i, size in enumerate(sizes):
@@ -132,7 +135,7 @@ def sectioned_frame(
             ):
                 continue  # a section before the last needs a profile to link the next one to
             if not frame:
-                if section_ok(section, len(section)):
+                if section_ok(section, len(section)) and (frame_ok is None or frame_ok(section)):
                     frame = last = section
                     break
                 continue
@@ -142,8 +145,11 @@ def sectioned_frame(
             _, bar, moved = joined
             guest = next(p for p in moved if parts_contact(bar, p, tolerance) > 0)
             moved = [guest, *(p for p in moved if p is not guest)]
-            if section_ok([*last, bar, *moved], len(last)):
-                frame, last = [*frame, bar, *moved], [bar, *moved]
+            grown = [*frame, bar, *moved]
+            if section_ok([*last, bar, *moved], len(last)) and (
+                frame_ok is None or frame_ok(grown)
+            ):
+                frame, last = grown, [bar, *moved]
                 break
         else:
             return None

@@ -9,7 +9,7 @@ an assembly under the constraints of the robot cell, stored as the reachable-sta
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -55,10 +55,16 @@ class Simulator:
         self.tolerance = float(self.cell.config.touch_tolerance)
         self.generator = StructureGenerator(tolerance=self.tolerance, **dict(generator))
 
-    def generate(self, n_parts: int, rng: np.random.Generator) -> Assembly:
+    def generate(
+        self,
+        n_parts: int,
+        rng: np.random.Generator,
+        frame_ok: Callable[[Assembly], bool] | None = None,
+    ) -> Assembly:
         """A frame of `n_parts`; a frame built in sections (`generator.section_parts`) takes
-        only sections this cell can build in turn (`buildable_piece`)."""
-        return self.generator.generate(n_parts, rng, self.buildable_piece)
+        only sections this cell can build in turn (`buildable_piece`) and, if given, that
+        leave a frame `frame_ok` accepts as it grows."""
+        return self.generator.generate(n_parts, rng, self.buildable_piece, frame_ok)
 
     def buildable_piece(self, piece: Assembly, head: int) -> bool:
         """Some order of `piece` starts with its part 0 and places its first `head` parts
