@@ -12,8 +12,8 @@ force there) are planned by `task.large_planners` under the planner's own budget
 `task.large_feasible=true` they are drawn with a verified order (grace/planning/
 feasible_frames.py) and summarised as feasible ones. Writes
 search_bench.json (per assembly and summarised per size, grace/evaluation/search_bench.py), its
-tables as search_bench.md and search_bench.png; returns the GRACE search's success rate at 2N checks on the largest labelled
-size.
+tables as search_bench.md and search_bench.png; returns the GRACE search's success rate at 2N
+checks on the largest labelled size.
 """
 
 from __future__ import annotations
