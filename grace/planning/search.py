@@ -56,7 +56,7 @@ from grace.domain.orders import GroundTruth
 from grace.planning.fixation_prior import FixationPrior
 from grace.planning.precedence import refuted
 from grace.planning.sequences import Scorer
-from grace.planning.step_checks import BlockerSteps, StepOracle, blocking_set
+from grace.planning.step_checks import BlockerSteps, StepOracle, blocking_set, brute_force
 from grace.planning.topk import Ranked, StateScores, lazy_scores
 
 Refutation = Callable[[], int | None]
@@ -180,7 +180,10 @@ class VerifiedSearch:
     `k`: verified orders wanted (None: all of them, the exhaustive mode); `max_checks` /
     `max_seconds`: the budget (None: unlimited). Each (state, part) is checked at most once,
     so forward the checks never exceed the brute force's (the reachable states' pairs);
-    backward they may, as states no order reaches can be asked about."""
+    backward they may, as states no order reaches can be asked about. `precedence`: refute
+    first by the orders every order keeps (grace/planning/precedence.py); `exhaustive_parts`
+    / `exhaustive_after`: up to that many parts, after that many checks per part, the brute
+    force decides whether any order exists (`search`)."""
 
     k: int | None = 1
     direction: Direction = Direction.backward
@@ -188,6 +191,8 @@ class VerifiedSearch:
     learn_blocks: bool = True
     fixation_prior: bool = True
     precedence: bool = True
+    exhaustive_parts: int = 20
+    exhaustive_after: int = 20
     touch_tolerance: float = 0.5
     max_checks: int | None = None
     max_seconds: float | None = None
@@ -200,12 +205,16 @@ class VerifiedSearch:
         oracle: StepOracle,
         prior: StepPrior | None = None,
         refute: Refutation | None = None,
+        exhaust: Callable[[], GroundTruth] | None = None,
     ) -> SearchResult:
         """Search one assembly: `scores(state)` gives the policy's score of each step out of
         `state` in this search's direction, `oracle` the simulator's step checks; the steps
         `prior(before, part)` allows are tried first; `refute()`, asked first, may prove the
-        assembly infeasible without a step check."""
-        return _Search(self, scores, oracle, prior, refute).run()
+        assembly infeasible without a step check; `exhaust()`, the brute force on the same
+        checks, decides feasibility once the search has spent `exhaustive_after` × N checks
+        on an assembly of at most `exhaustive_parts` parts without a verdict: a proof then
+        costs at most the brute force's on top (its checks are added to the search's)."""
+        return _Search(self, scores, oracle, prior, refute, exhaust).run()
 
     def plan(self, scorer: Scorer, assembly: Assembly, oracle: StepOracle) -> SearchResult:
         """Search `assembly` with the policy `scorer` (its states scored lazily, forward one
@@ -213,12 +222,13 @@ class VerifiedSearch:
         (grace/planning/fixation_prior.py) if `fixation_prior`."""
         fixation = FixationPrior.of(assembly, self.touch_tolerance)
         prior = fixation.allows if self.fixation_prior else None
-        refute = None
-        if self.precedence and isinstance(oracle, BlockerSteps):
-            refute = lambda: refuted(oracle, fixation)  # noqa: E731
-        if self.direction == Direction.forward:
-            return self.search(lazy_scores(scorer, assembly), oracle, prior, refute)
-        return self.search(removal_scores(scorer, assembly), oracle, prior, refute)
+        refute = exhaust = None
+        if isinstance(oracle, BlockerSteps):
+            if self.precedence:
+                refute = lambda: refuted(oracle, fixation)  # noqa: E731
+            exhaust = lambda: brute_force(oracle)  # noqa: E731
+        scores = lazy_scores if self.direction == Direction.forward else removal_scores
+        return self.search(scores(scorer, assembly), oracle, prior, refute, exhaust)
 
 
 class _Search:
@@ -231,10 +241,14 @@ class _Search:
         oracle: StepOracle,
         prior: StepPrior | None,
         refute: Refutation | None = None,
+        exhaust: Callable[[], GroundTruth] | None = None,
     ) -> None:
         self.config = config
         self.prior = prior
         self.refute = refute
+        small = oracle.n_parts <= config.exhaustive_parts
+        self.exhaust = exhaust if config.k is not None and small else None
+        self.extra_checks = 0  # the brute force's, once it ran
         self.forward = config.direction == Direction.forward
         self.scores = scores
         self.oracle = oracle
@@ -253,6 +267,17 @@ class _Search:
         self.events: list[SearchEvent] = []
         self.first: tuple[int, float] | None = None
         self.n_orders = 0
+
+    def _exhausted_by_brute_force(self, root: _Node) -> bool:
+        """Past its share of checks, the brute force decides: True if it refuted every order
+        (the root is then dead); a feasible verdict leaves the search to find the order."""
+        if self.exhaust is None or self.oracle.checks < self.config.exhaustive_after * self.n:
+            return False
+        truth, self.exhaust = self.exhaust(), None
+        self.extra_checks = truth.checks
+        if not truth.feasible:
+            self._kill(root)
+        return not truth.feasible
 
     # Directions ------------------------------------------------------------------------------
 
@@ -476,6 +501,8 @@ class _Search:
                 self._take(node, part, start)
             else:
                 self._refuse(node, part, verdict.conflicts)
+                if self._exhausted_by_brute_force(root):
+                    break
         seconds = time.perf_counter() - start
         exhausted = not out_of_budget and not self._enough()
         if self.goal.parents and root.alive:
@@ -488,7 +515,7 @@ class _Search:
         return SearchResult(
             outcome=outcome,
             orders=self._best_orders(),
-            checks=self.oracle.checks,
+            checks=self.oracle.checks + self.extra_checks,
             seconds=seconds,
             first_checks=first_checks,
             first_seconds=first_seconds,

@@ -62,3 +62,21 @@ def test_the_search_asks_no_step_check_when_the_test_refutes_the_assembly():
         )
         assert result.outcome == Outcome.infeasible and result.exhausted
         assert result.checks == 0 and not result.orders
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_past_its_share_of_checks_the_brute_force_decides_an_assembly_that_small(seed):
+    masks, touch = random_world(7, np.random.default_rng(seed))
+    truth = brute_force(MaskSteps(masks, touch))
+    scores = lambda state: np.random.default_rng(state).random(7)  # noqa: E731
+    for direction in Direction:
+        world = MaskSteps(masks, touch)
+        search = VerifiedSearch(direction=direction, exhaustive_after=1, precedence=False)
+        result = search.search(scores, world, exhaust=lambda w=world: brute_force(w))
+        assert result.outcome == (Outcome.verified if truth.feasible else Outcome.infeasible)
+        if not truth.feasible:  # decided after one step check per part at most, plus its own
+            assert result.checks <= 7 + 1 + truth.checks
+        small = VerifiedSearch(direction=direction, exhaustive_parts=6, exhaustive_after=1)
+        world = MaskSteps(masks, touch)
+        untouched = small.search(scores, world, exhaust=lambda: pytest.fail("7 > 6 parts"))
+        assert untouched.outcome == result.outcome
