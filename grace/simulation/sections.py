@@ -113,6 +113,7 @@ def sectioned_frame(
     tries: int,
     width: float = np.inf,
     frame_ok: Callable[[list[Part]], bool] | None = None,
+    frame_tries: int = 3,
 ) -> list[Part] | None:
     """A frame of sections of `sizes` parts (see the module docstring); `grow(n)` grows one
     section (None if it failed). The frame is built section by section, each from its first
@@ -123,21 +124,27 @@ def sectioned_frame(
     with its part 0 and passes the state where its first `head` parts are placed (asked
     last: the simulator's ground truth costs most). Each section gets `tries` attempts; the
     frame stays at most `width` mm wide (x); `frame_ok`, if given, must accept the frame as
-    it grows, after each section (asked after `section_ok`). None if a section never makes
-    it."""
+    it grows, after each section (asked after `section_ok`; after `frame_tries` refusals
+    the frame so far is given up: what it holds may leave no section an order). None if a
+    section never makes it."""
     frame: list[Part] = []
     last: list[Part] = []  # the previous section, from its first part (its link, if any) on
     for i, size in enumerate(sizes):
+        refused = 0
         for _ in range(tries):
+            if refused == frame_tries:
+                return None
             section = grow(size)
             if section is None or (
                 i < len(sizes) - 1 and not edge_profiles(section, True, tolerance)
             ):
                 continue  # a section before the last needs a profile to link the next one to
             if not frame:
-                if section_ok(section, len(section)) and (frame_ok is None or frame_ok(section)):
-                    frame = last = section
-                    break
+                if section_ok(section, len(section)):
+                    if frame_ok is None or frame_ok(section):
+                        frame = last = section
+                        break
+                    refused += 1
                 continue
             joined = link(last, section, rng, gap, grid, tolerance, width)
             if joined is None:
@@ -146,11 +153,11 @@ def sectioned_frame(
             guest = next(p for p in moved if parts_contact(bar, p, tolerance) > 0)
             moved = [guest, *(p for p in moved if p is not guest)]
             grown = [*frame, bar, *moved]
-            if section_ok([*last, bar, *moved], len(last)) and (
-                frame_ok is None or frame_ok(grown)
-            ):
-                frame, last = grown, [bar, *moved]
-                break
+            if section_ok([*last, bar, *moved], len(last)):
+                if frame_ok is None or frame_ok(grown):
+                    frame, last = grown, [bar, *moved]
+                    break
+                refused += 1
         else:
             return None
     return frame
