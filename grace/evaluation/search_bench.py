@@ -222,8 +222,14 @@ def _infeasible_summary(records: list[AssemblyRuns], names: list[str]) -> dict:
             for r, c in zip(records, checks, strict=True)
             if r.truth_checks is not None
         ]
+        slower = [  # seconds over the brute force's on the same assembly
+            r.runs[name].seconds / r.runs["brute_force"].seconds
+            for r in records
+            if "brute_force" in r.runs and r.runs["brute_force"].seconds > 0
+        ]
         out["planners"][name] = {
             "proved": float(np.mean(proved)),
+            "max_seconds_vs_brute_force": max(slower) if slower else None,
             "median_checks": _median(checks),
             "median_seconds": _median(seconds),
             "p90_seconds": _quantile(seconds, 0.9),
@@ -346,9 +352,11 @@ def search_bench_markdown(summary: dict[str, dict]) -> str:
             for i, (name, f) in enumerate(group["planners"].items()):
                 label = f"A{size} ({group['assemblies']})" if i == 0 else ""
                 ratio = f["median_fewer_than_brute_force"]
+                slower = f.get("max_seconds_vs_brute_force")
                 infeasible.append(
                     [label, name, f"{f['proved']:.2f}", _figure(f["median_checks"]),
-                     _figure(f["median_seconds"], 2), _figure(ratio, 1)]
+                     _figure(f["median_seconds"], 2), _figure(ratio, 1),
+                     "–" if slower is None else f"{slower:.2f}"]
                 )  # fmt: skip
         for i, (name, f) in enumerate(entry.get("unlabelled", {}).get("planners", {}).items()):
             label = f"A{size} ({entry['unlabelled']['assemblies']})" if i == 0 else ""
@@ -360,7 +368,7 @@ def search_bench_markdown(summary: dict[str, dict]) -> str:
         parts.append(markdown_table(head, feasible))
     if infeasible:
         head = ["size (infeasible)", "planner", "proved", "median checks", "median s",
-                "× fewer checks than brute force"]  # fmt: skip
+                "× fewer checks than brute force", "max s / brute force's s"]  # fmt: skip
         parts.append(markdown_table(head, infeasible))
     if unlabelled:
         parts.append(markdown_table(["size", "planner", "outcomes", "max s"], unlabelled))

@@ -11,7 +11,16 @@ def test_the_tables_carry_the_summary_figures_of_each_kind():
     records = [
         AssemblyRuns("A30-0", 30, True, None, {"grace": run("verified", 40, 40)}),
         AssemblyRuns("A30-1", 30, True, None, {"grace": run("verified", 90, 90)}),
-        AssemblyRuns("A12-0", 12, False, 600, {"grace": run("infeasible", 0, None)}),
+        AssemblyRuns(
+            "A12-0",
+            12,
+            False,
+            600,
+            {
+                "grace": run("infeasible", 0, None),
+                "brute_force": PlannerRun("infeasible", 600, 0.5, None, None),
+            },
+        ),
         AssemblyRuns("A50-0", 50, None, None, {"grace": run("not found within budget", 9, None)}),
     ]
     text = search_bench_markdown(summarise(records, [1, 2], "grace"))
@@ -19,5 +28,6 @@ def test_the_tables_carry_the_summary_figures_of_each_kind():
     assert "| size (feasible) | planner | 1N | 2N | unlimited | median checks | median s |" in lines
     # no order within 30 checks, one of two within 60, both unlimited; median of 40 and 90
     assert "| A30 (2) | grace | 0.00 | 0.50 | 1.00 | 65 | 1.25 |" in lines
-    assert any(line.startswith("| A12 (1) | grace | 1.00 | 0 | 1.50 |") for line in lines)
+    # a proof without a step check: ∞ fewer checks; three times the brute force's seconds
+    assert "| A12 (1) | grace | 1.00 | 0 | 1.50 | ∞ | 3.00 |" in lines
     assert "| A50 (1) | grace | not found within budget 1 | 1.50 |" in lines
