@@ -104,6 +104,10 @@ class OptionTable:
         cls, assembly: Assembly, options: list[list[PlacementOption]], fixation: Fixation
     ) -> OptionTable:
         flat = [(p, o) for p, opts in enumerate(options) for o in opts]
+        turns = np.array([p.quarter_turns % 2 for p in assembly.parts])
+        same = turns[:, None] == turns[None, :]
+        np.fill_diagonal(same, False)
+        bits = np.int64(1) << np.arange(len(turns), dtype=np.int64)
         return cls(
             part=np.array([p for p, _ in flat], dtype=int),
             masks=np.array([o.masks for _, o in flat], dtype=np.int64).reshape(len(flat), -1),
@@ -111,17 +115,7 @@ class OptionTable:
             arm_clear=np.array([o.arm_clear for _, o in flat], dtype=bool),
             is_profile=fixation.is_profile,
             touch=fixation.touch,
-            parallel=np.array(
-                [
-                    sum(
-                        1 << j
-                        for j, q in enumerate(assembly.parts)
-                        if j != i and q.quarter_turns % 2 == p.quarter_turns % 2
-                    )
-                    for i, p in enumerate(assembly.parts)
-                ],
-                dtype=np.int64,
-            ),
+            parallel=np.where(same, bits[None, :], 0).sum(axis=1, dtype=np.int64),
         )
 
     def blockers(self, rules: Collection[str], relax: str | None = None) -> list[np.ndarray]:
