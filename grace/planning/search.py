@@ -473,9 +473,14 @@ class _Search:
 
     def run(self) -> SearchResult:
         start = time.perf_counter()
-        root = self._expand(self.start_state, 0.0)
         if self.refute is not None and self.refute() is not None:
-            self._kill(root)  # proved infeasible without a step check
+            # proved infeasible without a step check, and without scoring a state
+            root = self.nodes[self.start_state] = _Node(
+                self.start_state, np.zeros(self.n), [], [], 0
+            )
+            root.dead = True
+        else:
+            root = self._expand(self.start_state, 0.0)
         out_of_budget = False
         while self.heap and not root.dead and not self._enough():
             *_, state = heapq.heappop(self.heap)

@@ -80,3 +80,12 @@ def test_past_its_share_of_checks_the_brute_force_decides_an_assembly_that_small
         world = MaskSteps(masks, touch)
         untouched = small.search(scores, world, exhaust=lambda: pytest.fail("7 > 6 parts"))
         assert untouched.outcome == result.outcome
+
+
+def test_a_refuted_assembly_is_never_scored():
+    def scores(state):
+        raise AssertionError(f"state {state} scored")
+
+    world = MaskSteps([[0b010], [0b001], [0]])
+    result = VerifiedSearch().search(scores, world, refute=lambda: refuted(world))
+    assert result.outcome == Outcome.infeasible and result.expanded == 1
