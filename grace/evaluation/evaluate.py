@@ -92,7 +92,7 @@ def evaluate_assembly(
     off_states, off_masks = offpath_states(truth)
     dead_states, dead_masks = dead_end_steps(truth)
     table, extra = _step_table(scorer, sample, scored, np.concatenate([on_states, off_states]))
-    best = top_k(table_scores(scored), n, k_max, threshold, completion_bounds(scored, threshold))
+    best, _ = top_k(table_scores(scored), n, k_max, threshold, completion_bounds(scored, threshold))
     valid = label_table(truth)
     return AssemblyEval(
         size=n,
