@@ -192,6 +192,8 @@ RANGES: dict[str, Range] = {
     "planner.touch_tolerance": MM,
     "planner.max_checks": at_least(1, "simulator step checks; null: unlimited"),
     "planner.max_seconds": above(0, "seconds of search; null: unlimited", 10),
+    "planner.exhaustive_parts": at_least(0, "parts up to which the brute force decides; 0: never"),
+    "planner.exhaustive_after": at_least(0, "checks per part the search spends before it"),
     # task (the TaskSettings of each grace/tasks/<name>.py)
     "task.threshold": LAMBDA,
     "task.ks": at_least(1, "the k of P@k"),
@@ -241,6 +243,9 @@ RANGES: dict[str, Range] = {
     "simulator.cell.arm_sample_step": LENGTH,
     "simulator.cell.max_branches": at_least(1, "IK branches tried per arm (4 exist)"),
     "simulator.cell.max_parts": at_least(MIN_PARTS, "part slots of the compiled cell"),
+    "simulator.cell.track": Range(
+        why="a carriage position along the track, mm either side of the arm's base"
+    ),
     "simulator.generator.profile_300_share": SHARE,
     "simulator.generator.flush_share": SHARE,
     "simulator.generator.bracket_share": SHARE,
@@ -249,6 +254,9 @@ RANGES: dict[str, Range] = {
     "simulator.generator.work_area": LENGTH,
     "simulator.generator.max_attempts": at_least(1, "growth attempts per try"),
     "simulator.generator.max_restarts": at_least(1, "tries before the generator gives up"),
+    "simulator.generator.section_parts": at_least(0, "parts per section; 0: frames grow whole"),
+    "simulator.generator.section_gap_mm": MM,
+    "simulator.generator.frame_area": LENGTH,
     "simulator.motion.slide_length": MM,
     "simulator.motion.slide_lead": MM,
     "simulator.motion.approach_clearance": MM,

@@ -26,6 +26,7 @@ import numpy as np
 from grace.domain.assembly import Assembly
 from grace.errors import UserError
 from grace.evaluation.baselines import random_scorer
+from grace.evaluation.tables import markdown_table
 from grace.planning.search import Frontier, Outcome, SearchResult, VerifiedSearch
 from grace.planning.sequences import Scorer
 from grace.planning.step_checks import BlockerSteps, brute_force
@@ -216,13 +217,19 @@ def _infeasible_summary(records: list[AssemblyRuns], names: list[str]) -> dict:
         proved = [run.outcome == str(Outcome.infeasible) for run in runs]
         checks = [run.checks if ok else np.inf for run, ok in zip(runs, proved, strict=True)]
         seconds = [run.seconds if ok else np.inf for run, ok in zip(runs, proved, strict=True)]
-        ratios = [
-            r.truth_checks / c
+        ratios = [  # a proof without a step check (grace/planning/precedence.py): ∞ fewer
+            r.truth_checks / c if c else np.inf
             for r, c in zip(records, checks, strict=True)
             if r.truth_checks is not None
         ]
+        slower = [  # seconds over the brute force's on the same assembly
+            r.runs[name].seconds / r.runs["brute_force"].seconds
+            for r in records
+            if "brute_force" in r.runs and r.runs["brute_force"].seconds > 0
+        ]
         out["planners"][name] = {
             "proved": float(np.mean(proved)),
+            "max_seconds_vs_brute_force": max(slower) if slower else None,
             "median_checks": _median(checks),
             "median_seconds": _median(seconds),
             "p90_seconds": _quantile(seconds, 0.9),
@@ -317,3 +324,52 @@ def summary_line(size: str, kind: str, name: str, figures: dict) -> str:
         + (f"{checks:.0f} checks, {seconds:.2f} s" if checks is not None else "∞")
         + (f", {ratio:.1f}x fewer than brute force" if ratio else "")
     )
+
+
+def _figure(value: float | None, digits: int = 0) -> str:
+    return "∞" if value is None else f"{value:.{digits}f}"
+
+
+def search_bench_markdown(summary: dict[str, dict]) -> str:
+    """The summary as markdown (search_bench.md): per size, the feasible assemblies' success
+    within each budget and median checks and seconds to the first verified order; the
+    infeasible ones' proofs beside the brute force; the unlabelled ones' outcomes."""
+    feasible, infeasible, unlabelled = [], [], []
+    budgets: list[str] = []
+    for size, entry in summary.items():
+        if "feasible" in entry:
+            group = entry["feasible"]
+            for i, (name, f) in enumerate(group["planners"].items()):
+                budgets = list(f["success"])
+                label = f"A{size} ({group['assemblies']})" if i == 0 else ""
+                rates = [f"{v:.2f}" for v in f["success"].values()]
+                checks, seconds = f["median_checks"], f["median_seconds"]
+                feasible.append(
+                    [label, name, *rates, _figure(checks), _figure(seconds, 2)]
+                )  # fmt: skip
+        if "infeasible" in entry:
+            group = entry["infeasible"]
+            for i, (name, f) in enumerate(group["planners"].items()):
+                label = f"A{size} ({group['assemblies']})" if i == 0 else ""
+                ratio = f["median_fewer_than_brute_force"]
+                slower = f.get("max_seconds_vs_brute_force")
+                infeasible.append(
+                    [label, name, f"{f['proved']:.2f}", _figure(f["median_checks"]),
+                     _figure(f["median_seconds"], 2), _figure(ratio, 1),
+                     "–" if slower is None else f"{slower:.2f}"]
+                )  # fmt: skip
+        for i, (name, f) in enumerate(entry.get("unlabelled", {}).get("planners", {}).items()):
+            label = f"A{size} ({entry['unlabelled']['assemblies']})" if i == 0 else ""
+            outcomes = ", ".join(f"{k} {v}" for k, v in f["outcomes"].items())
+            unlabelled.append([label, name, outcomes, f"{f['max_seconds']:.2f}"])
+    parts = []
+    if feasible:
+        head = ["size (feasible)", "planner", *budgets, "median checks", "median s"]
+        parts.append(markdown_table(head, feasible))
+    if infeasible:
+        head = ["size (infeasible)", "planner", "proved", "median checks", "median s",
+                "× fewer checks than brute force", "max s / brute force's s"]  # fmt: skip
+        parts.append(markdown_table(head, infeasible))
+    if unlabelled:
+        parts.append(markdown_table(["size", "planner", "outcomes", "max s"], unlabelled))
+    return "\n\n".join(parts) + "\n"

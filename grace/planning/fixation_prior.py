@@ -14,6 +14,7 @@ never asked about.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -22,7 +23,7 @@ from grace.simulation.feasibility import Fixation
 from grace.simulation.joints import touching
 
 
-@dataclass(frozen=True)
+@dataclass
 class FixationPrior:
     """`first`: the parts fixation lets go first; `enablers[p]`: the parts any one of which,
     placed, fixes p (both read off the simulator's own rule, `Fixation.holds`)."""
@@ -30,6 +31,12 @@ class FixationPrior:
     first: int
     enablers: tuple[int, ...]
     _built: dict[int, bool] = field(default_factory=dict, compare=False, repr=False)
+
+    @cached_property
+    def enables(self) -> tuple[int, ...]:
+        """`enables[q]`: the parts that q, placed, fixes (the transpose of `enablers`)."""
+        n = len(self.enablers)
+        return tuple(sum(1 << p for p in range(n) if self.enablers[p] >> q & 1) for q in range(n))
 
     @classmethod
     def of(cls, assembly: Assembly, tolerance: float) -> FixationPrior:
@@ -51,19 +58,24 @@ class FixationPrior:
         """Some order of the parts of `state` satisfies fixation: grown from a part that may go
         first, each next part fixed by those before (adding parts never unfixes one)."""
         if state not in self._built:
-            self._built[state] = state == 0 or any(
-                self._grown(1 << p, state) == state for p in mask_to_parts(state & self.first)
-            )
+            built, tried = state == 0, 0
+            for p in mask_to_parts(state & self.first):
+                if built:
+                    break
+                if not tried >> p & 1:  # a start inside a grown set grows no further
+                    grown = self._grown(1 << p, state)
+                    built, tried = grown == state, tried | grown
+            self._built[state] = built
         return self._built[state]
 
     def _grown(self, start: int, state: int) -> int:
-        grown, changed = start, True
-        while changed:
-            changed = False
-            for part in mask_to_parts(state & ~grown):
-                if self.enablers[part] & grown:
-                    grown |= 1 << part
-                    changed = True
+        """The parts of `state` that can follow `start` (a bitmask of one part), breadth
+        first along `enables`."""
+        grown, stack = start, mask_to_parts(start)
+        while stack:
+            new = self.enables[stack.pop()] & state & ~grown
+            grown |= new
+            stack += mask_to_parts(new)
         return grown
 
     def allows(self, before: int, part: int) -> bool:

@@ -26,8 +26,9 @@ a state without a check, and, forward, drops every state holding the parts witho
 (no order completes from there); it takes the parts placed earliest, so that the search jumps
 back as far as possible. The search stops when `k` verified orders exist (the `k` most probable
 of them are returned), when the start is dead (the assembly is infeasible: every order was
-refuted), or when its budget of checks or seconds runs out ("not found within budget"). Which
-unchecked step comes next is the frontier's choice:
+refuted, by the search or, before it, by the orders every order must keep, `precedence`:
+grace/planning/precedence.py), or when its budget of checks or seconds runs out ("not found
+within budget"). Which unchecked step comes next is the frontier's choice:
 
 - `greedy`: depth first; in the deepest open state, its best-scored unchecked step. With a good
   policy this walks straight to the goal (N checks for N parts) and backtracks only where a
@@ -53,9 +54,14 @@ import numpy as np
 from grace.domain.assembly import Assembly, full_mask, mask_to_parts
 from grace.domain.orders import GroundTruth
 from grace.planning.fixation_prior import FixationPrior
+from grace.planning.precedence import refuted
 from grace.planning.sequences import Scorer
-from grace.planning.step_checks import StepOracle, blocking_set
+from grace.planning.step_checks import BlockerSteps, StepOracle, blocking_set, brute_force
 from grace.planning.topk import Ranked, StateScores, lazy_scores
+
+Refutation = Callable[[], int | None]
+"""`refute()`: a part no order can place, proved without a search (grace/planning/
+precedence.py), or None."""
 
 StepPrior = Callable[[int, int], bool]
 """`prior(before, part)`: whether the step placing `part` into the state `before` is worth
@@ -174,13 +180,19 @@ class VerifiedSearch:
     `k`: verified orders wanted (None: all of them, the exhaustive mode); `max_checks` /
     `max_seconds`: the budget (None: unlimited). Each (state, part) is checked at most once,
     so forward the checks never exceed the brute force's (the reachable states' pairs);
-    backward they may, as states no order reaches can be asked about."""
+    backward they may, as states no order reaches can be asked about. `precedence`: refute
+    first by the orders every order keeps (grace/planning/precedence.py); `exhaustive_parts`
+    / `exhaustive_after`: up to that many parts, after that many checks per part, the brute
+    force decides whether any order exists (`search`)."""
 
     k: int | None = 1
     direction: Direction = Direction.backward
     frontier: Frontier = Frontier.greedy
     learn_blocks: bool = True
     fixation_prior: bool = True
+    precedence: bool = True
+    exhaustive_parts: int = 20
+    exhaustive_after: int = 20
     touch_tolerance: float = 0.5
     max_checks: int | None = None
     max_seconds: float | None = None
@@ -188,23 +200,35 @@ class VerifiedSearch:
     verify = True  # the task layer lists these orders as verified (the top-k listing does not)
 
     def search(
-        self, scores: StateScores, oracle: StepOracle, prior: StepPrior | None = None
+        self,
+        scores: StateScores,
+        oracle: StepOracle,
+        prior: StepPrior | None = None,
+        refute: Refutation | None = None,
+        exhaust: Callable[[], GroundTruth] | None = None,
     ) -> SearchResult:
         """Search one assembly: `scores(state)` gives the policy's score of each step out of
         `state` in this search's direction, `oracle` the simulator's step checks; the steps
-        `prior(before, part)` allows are tried first."""
-        return _Search(self, scores, oracle, prior).run()
+        `prior(before, part)` allows are tried first; `refute()`, asked first, may prove the
+        assembly infeasible without a step check; `exhaust()`, the brute force on the same
+        checks, decides feasibility once the search has spent `exhaustive_after` × N checks
+        on an assembly of at most `exhaustive_parts` parts without a verdict: a proof then
+        costs at most the brute force's on top (its checks are added to the search's)."""
+        return _Search(self, scores, oracle, prior, refute, exhaust).run()
 
     def plan(self, scorer: Scorer, assembly: Assembly, oracle: StepOracle) -> SearchResult:
         """Search `assembly` with the policy `scorer` (its states scored lazily, forward one
         forward pass per state, backward one batched call per state), with the fixation prior
         (grace/planning/fixation_prior.py) if `fixation_prior`."""
-        prior = None
-        if self.fixation_prior:
-            prior = FixationPrior.of(assembly, self.touch_tolerance).allows
-        if self.direction == Direction.forward:
-            return self.search(lazy_scores(scorer, assembly), oracle, prior)
-        return self.search(removal_scores(scorer, assembly), oracle, prior)
+        fixation = FixationPrior.of(assembly, self.touch_tolerance)
+        prior = fixation.allows if self.fixation_prior else None
+        refute = exhaust = None
+        if isinstance(oracle, BlockerSteps):
+            if self.precedence:
+                refute = lambda: refuted(oracle, fixation)  # noqa: E731
+            exhaust = lambda: brute_force(oracle)  # noqa: E731
+        scores = lazy_scores if self.direction == Direction.forward else removal_scores
+        return self.search(scores(scorer, assembly), oracle, prior, refute, exhaust)
 
 
 class _Search:
@@ -216,9 +240,15 @@ class _Search:
         scores: StateScores,
         oracle: StepOracle,
         prior: StepPrior | None,
+        refute: Refutation | None = None,
+        exhaust: Callable[[], GroundTruth] | None = None,
     ) -> None:
         self.config = config
         self.prior = prior
+        self.refute = refute
+        small = oracle.n_parts <= config.exhaustive_parts
+        self.exhaust = exhaust if config.k is not None and small else None
+        self.extra_checks = 0  # the brute force's, once it ran
         self.forward = config.direction == Direction.forward
         self.scores = scores
         self.oracle = oracle
@@ -237,6 +267,17 @@ class _Search:
         self.events: list[SearchEvent] = []
         self.first: tuple[int, float] | None = None
         self.n_orders = 0
+
+    def _exhausted_by_brute_force(self, root: _Node) -> bool:
+        """Past its share of checks, the brute force decides: True if it refuted every order
+        (the root is then dead); a feasible verdict leaves the search to find the order."""
+        if self.exhaust is None or self.oracle.checks < self.config.exhaustive_after * self.n:
+            return False
+        truth, self.exhaust = self.exhaust(), None
+        self.extra_checks = truth.checks
+        if not truth.feasible:
+            self._kill(root)
+        return not truth.feasible
 
     # Directions ------------------------------------------------------------------------------
 
@@ -432,7 +473,14 @@ class _Search:
 
     def run(self) -> SearchResult:
         start = time.perf_counter()
-        root = self._expand(self.start_state, 0.0)
+        if self.refute is not None and self.refute() is not None:
+            # proved infeasible without a step check, and without scoring a state
+            root = self.nodes[self.start_state] = _Node(
+                self.start_state, np.zeros(self.n), [], [], 0
+            )
+            root.dead = True
+        else:
+            root = self._expand(self.start_state, 0.0)
         out_of_budget = False
         while self.heap and not root.dead and not self._enough():
             *_, state = heapq.heappop(self.heap)
@@ -458,6 +506,8 @@ class _Search:
                 self._take(node, part, start)
             else:
                 self._refuse(node, part, verdict.conflicts)
+                if self._exhausted_by_brute_force(root):
+                    break
         seconds = time.perf_counter() - start
         exhausted = not out_of_budget and not self._enough()
         if self.goal.parents and root.alive:
@@ -470,7 +520,7 @@ class _Search:
         return SearchResult(
             outcome=outcome,
             orders=self._best_orders(),
-            checks=self.oracle.checks,
+            checks=self.oracle.checks + self.extra_checks,
             seconds=seconds,
             first_checks=first_checks,
             first_seconds=first_seconds,

@@ -132,6 +132,10 @@ class CellConfig:
     """IK branches (shoulder × elbow) tried per arm and option, preferred first."""
     max_parts: int = MISSING
     """Part slots of the compiled MuJoCo model (each part has its boxes and its clamp's)."""
+    track: list[float] = field(default_factory=list)
+    """[from, to] travel (mm, along world y from its base) of a linear track under every arm;
+    [] = fixed pedestals. On a track, an arm's carriage stops opposite the grasp before the
+    part is carried in and stays there along the motion (docs/world.md, "Large frames")."""
 
 
 @dataclass
@@ -162,6 +166,13 @@ class GeneratorConfig:
     """The structure's bounding box must fit [width x, depth y], centred on the origin."""
     max_attempts: int = MISSING
     max_restarts: int = MISSING
+    section_parts: int = 0
+    """Frames of more parts are built in sections of at most this many, joined by links
+    (grace/simulation/sections.py); 0 = every frame grown whole, `work_area` its box."""
+    section_gap_mm: float = 100.0
+    """Room between two sections apart from their link."""
+    frame_area: list[float] = field(default_factory=list)
+    """A sectioned frame's box [x, y] (each section's is `work_area`); [] = no bound."""
 
 
 @dataclass
@@ -220,6 +231,8 @@ def check_cell(cfg: CellConfig) -> None:
                 raise UserError(f"{where}: when '{b.when}' is not one of {list(CLAMP_STATES)}")
             if any(len(v) != 2 or v[0] >= v[1] for v in (b.along, b.out, b.z)):
                 raise UserError(f"{where}: along, out and z need [from, to] with from < to")
+    if cfg.track and (len(cfg.track) != 2 or cfg.track[0] > cfg.track[1]):
+        raise UserError(f"{CONFIG_DIR}/cell: field 'track' needs [] or [from, to] with from ≤ to")
     g = cfg.gripper
     if g.palm_width < g.max_opening + 2 * g.finger_thickness:
         raise UserError(

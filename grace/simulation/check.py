@@ -80,7 +80,8 @@ class OrderChecker:
     def __init__(self, simulator: Simulator, assembly: Assembly) -> None:
         self.simulator = simulator
         self.assembly = assembly
-        self.motions = simulator.motions(assembly)
+        self.scene = simulator.cell.scene(assembly)  # clamps designed once, not per part
+        self.motions = simulator.motions(assembly, self.scene)
         self.fixation = Fixation.of(assembly, touching(assembly, simulator.tolerance))
         self._options: dict[int, list[PlacementOption]] = {}
         self._verdicts: dict[tuple[int, int], Verdict] = {}
@@ -88,7 +89,7 @@ class OrderChecker:
     def options(self, part: int) -> list[PlacementOption]:
         if part not in self._options:
             cell = self.simulator.cell
-            self._options[part] = cell.placement_options(self.assembly, part, self.motions[part])
+            self._options[part] = cell.part_options(self.scene, part, self.motions[part])
         return self._options[part]
 
     def verdict(self, placed: int, part: int) -> Verdict:

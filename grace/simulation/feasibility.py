@@ -104,6 +104,10 @@ class OptionTable:
         cls, assembly: Assembly, options: list[list[PlacementOption]], fixation: Fixation
     ) -> OptionTable:
         flat = [(p, o) for p, opts in enumerate(options) for o in opts]
+        turns = np.array([p.quarter_turns % 2 for p in assembly.parts])
+        same = turns[:, None] == turns[None, :]
+        np.fill_diagonal(same, False)
+        bits = np.int64(1) << np.arange(len(turns), dtype=np.int64)
         return cls(
             part=np.array([p for p, _ in flat], dtype=int),
             masks=np.array([o.masks for _, o in flat], dtype=np.int64).reshape(len(flat), -1),
@@ -111,17 +115,7 @@ class OptionTable:
             arm_clear=np.array([o.arm_clear for _, o in flat], dtype=bool),
             is_profile=fixation.is_profile,
             touch=fixation.touch,
-            parallel=np.array(
-                [
-                    sum(
-                        1 << j
-                        for j, q in enumerate(assembly.parts)
-                        if j != i and q.quarter_turns % 2 == p.quarter_turns % 2
-                    )
-                    for i, p in enumerate(assembly.parts)
-                ],
-                dtype=np.int64,
-            ),
+            parallel=np.where(same, bits[None, :], 0).sum(axis=1, dtype=np.int64),
         )
 
     def blockers(self, rules: Collection[str], relax: str | None = None) -> list[np.ndarray]:
@@ -250,6 +244,28 @@ def nonlocal_block(truth: GroundTruth, fixation: Fixation, blockers: list[np.nda
         if (((local & pairs[None, :, 0]) == 0) & ((local & need) == need)).any():
             return True
     return False
+
+
+def orders(
+    assembly: Assembly,
+    options: list[list[PlacementOption]],
+    touch: np.ndarray,
+    rules: Collection[str] = RULES,
+    first: int | None = None,
+) -> GroundTruth:
+    """The ground truth of `label` alone: every feasible order under the active `rules`, only
+    those starting with part `first` if given."""
+    fixation = Fixation.of(assembly, touch)
+    active = [r for r in RULES if r in rules]
+    blockers = OptionTable.build(assembly, options, fixation).blockers(active)
+    check = rule_check(fixation, blockers, "fixation" in active)
+    if first is None:
+        return GroundTruth.explore_many(assembly.n_parts, check)
+
+    def starting(states: np.ndarray, part: int) -> np.ndarray:
+        return check(states, part) & ((states != 0) | (part == first))
+
+    return GroundTruth.explore_many(assembly.n_parts, starting)
 
 
 def label(

@@ -37,6 +37,7 @@ from grace.domain.assembly import (
 from grace.errors import UserError
 from grace.simulation.cell_config import CONFIG_DIR, GeneratorConfig, check_generator, typed
 from grace.simulation.joints import axis_of, end_joints, parts_contact, parts_overlap
+from grace.simulation.sections import section_sizes, sectioned_frame
 
 HALF = PROFILE_SECTION_MM / 2
 
@@ -66,18 +67,75 @@ class StructureGenerator:
         weights = np.array([float(self.cfg.motif_weights.get(k, 0.0)) for k in self.motifs])
         self.weights = weights / weights.sum()
 
-    def generate(self, n_parts: int, rng: np.random.Generator) -> Assembly:
-        """A connected frame of `n_parts` parts, centred and canonically named."""
+    def generate(
+        self,
+        n_parts: int,
+        rng: np.random.Generator,
+        section_ok: Callable[[Assembly, int], bool] | None = None,
+        frame_ok: Callable[[Assembly], bool] | None = None,
+    ) -> Assembly:
+        """A connected frame of `n_parts` parts, centred and canonically named; above
+        `section_parts`, built in sections whose pieces `section_ok(piece, head)` accepts
+        and, if given, that `frame_ok` accepts as the frame grows (grace/simulation/
+        sections.py)."""
         if n_parts < 1:
             raise UserError(f"generate: n_parts must be ≥ 1, got {n_parts}")
-        for _ in range(self.cfg.max_restarts):
+        cfg = self.cfg
+        if cfg.section_parts and n_parts > cfg.section_parts:
+            return self._sectioned(n_parts, rng, section_ok or (lambda *_: True), frame_ok)
+        for _ in range(cfg.max_restarts):
             parts = self._grow(n_parts, rng)
             if parts is not None:
                 return self._finish(parts)
         raise UserError(
             f"{CONFIG_DIR}/generator: no {n_parts}-part frame fits field 'work_area' after "
-            f"{self.cfg.max_restarts} restarts; enlarge work_area or max_attempts"
+            f"{cfg.max_restarts} restarts; enlarge work_area or max_attempts"
         )
+
+    def _sectioned(
+        self,
+        n_parts: int,
+        rng: np.random.Generator,
+        section_ok: Callable[[Assembly, int], bool],
+        frame_ok: Callable[[Assembly], bool] | None,
+    ) -> Assembly:
+        cfg = self.cfg
+        sizes = section_sizes(n_parts, cfg.section_parts)
+        for _ in range(cfg.max_restarts):
+            parts = sectioned_frame(
+                sizes,
+                lambda n: self._grow(n, rng),
+                lambda piece, head: section_ok(self._named(piece), head),
+                rng,
+                cfg.section_gap_mm,
+                cfg.position_grid_mm,
+                self.tolerance,
+                cfg.max_restarts,
+                cfg.frame_area[0] if cfg.frame_area else np.inf,
+                None if frame_ok is None else lambda parts: frame_ok(self._finish(parts)),
+            )
+            if parts is not None and self._within(parts, cfg.frame_area):
+                return self._finish(parts)
+        raise UserError(
+            f"{CONFIG_DIR}/generator: no {n_parts}-part frame of sections fits field "
+            f"'frame_area' after {cfg.max_restarts} restarts; enlarge frame_area or section_parts"
+        )
+
+    def _named(self, parts: list[Part]) -> Assembly:
+        """`parts` centred and named part_1..part_N in their given order (a section's piece:
+        its first part, the host of its link, stays first)."""
+        lo, hi = self._extent(parts)
+        shift = np.round((lo + hi) / 2)
+        named = []
+        for i, p in enumerate(parts):
+            pose = p.pose.copy()
+            pose[:2, 3] -= shift
+            named.append(Part(f"part_{i + 1}", p.type, pose))
+        return Assembly(tuple(named))
+
+    def _within(self, parts: list[Part], area: list[float]) -> bool:
+        lo, hi = self._extent(parts)
+        return not area or bool(hi[0] - lo[0] <= area[0] and hi[1] - lo[1] <= area[1])
 
     def _grow(self, n_parts: int, rng: np.random.Generator) -> list[Part] | None:
         parts = [self._profile(rng, 0.0, 0.0, int(rng.integers(2)))]
@@ -122,9 +180,7 @@ class StructureGenerator:
                 return False
         elif len(contacts) != 2:
             return False
-        lo, hi = self._extent([*parts, new])
-        width, depth = self.cfg.work_area
-        return bool(hi[0] - lo[0] <= width and hi[1] - lo[1] <= depth)
+        return self._within([*parts, new], self.cfg.work_area)
 
     def _kind(self, rng: np.random.Generator) -> PartType:
         return _LENGTHS[int(rng.random() < self.cfg.profile_300_share)]

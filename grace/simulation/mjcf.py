@@ -77,7 +77,7 @@ def _arm(cfg: CellConfig, arm: int) -> str:
 
     hits = PART_BIT | TABLE_BIT | bit
     # In a top-down grasp the last body's +z points down: the gripper hangs at +z below the flange.
-    return f"""
+    body = f"""
     <body name="arm{arm}_base" pos="{_vec(np.array([x, y, z]) * MM)}"
           euler="0 0 {np.radians(yaw):.9g}">
       <geom type="cylinder" size="{r[0]:.9g} {z * MM / 2:.9g}" pos="0 0 {-z * MM / 2:.9g}"
@@ -105,6 +105,15 @@ def _arm(cfg: CellConfig, arm: int) -> str:
           </body>
         </body>
       </body>
+    </body>"""
+    if not cfg.track:
+        return body
+    # On a linear track: a carriage sliding along world y carries the pedestal (docs/world.md).
+    lo, hi = (v * MM for v in cfg.track)
+    return f"""
+    <body name="arm{arm}_carriage">
+      <joint name="arm{arm}_track" type="slide" axis="0 1 0" range="{lo:.9g} {hi:.9g}"/>
+      {body}
     </body>"""
 
 

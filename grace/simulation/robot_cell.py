@@ -249,6 +249,10 @@ class RobotCell:
             np.array([self.model.joint(f"arm{a}_a{k}").qposadr[0] for k in range(1, 8)])
             for a in range(len(self.arms))
         ]
+        self._track = [
+            self.model.joint(f"arm{a}_track").qposadr[0] if cfg.track else None
+            for a in range(len(self.arms))
+        ]
         self._slot_of = np.full(self.model.ngeom, -1)
         self._slot_of[self._slots] = np.arange(len(self._slots))
         self._link_of = np.full(self.model.ngeom, -1)
@@ -261,6 +265,7 @@ class RobotCell:
         self._tool_body[self._tool] = [_FINGER, _FINGER, _PALM, _HELD, _HELD]
         self._table = geom("table").id
         self._slot_owner = np.full(len(self._slots), -1)
+        self._loaded: Scene | None = None  # the scene whose every box the slots hold
         self._slot_kind = np.zeros(len(self._slots), dtype=int)
         self._tolerance = cfg.touch_tolerance
         self._radii = np.asarray(cfg.arm.link_radii, dtype=float)
@@ -278,6 +283,18 @@ class RobotCell:
         return grasp_candidates(
             assembly.parts[part], self.config.gripper, self.config.grasp_fractions
         )
+
+    def carriage(self, arm: int, grasp: Grasp) -> float:
+        """Where (mm along world y from its base) the arm's carriage stops for `grasp`: opposite
+        the grasp within the track's travel; 0 on a fixed pedestal."""
+        if not self.config.track:
+            return 0.0
+        lo, hi = self.config.track
+        return float(np.clip(grasp.tcp[1] - self.config.bases[arm][1], lo, hi))
+
+    def _move_carriage(self, arm: int, offset: float) -> None:
+        if self._track[arm] is not None:
+            self.data.qpos[self._track[arm]] = offset * mjcf.MM
 
     # Scenes ---------------------------------------------------------------------------------
 
@@ -306,6 +323,7 @@ class RobotCell:
         """Put the boxes `keep` selects into the slots (the rest parked)."""
         boxes = np.stack([scene.lo[keep], scene.hi[keep]], axis=1)
         self._place(self._slots, boxes, self._parked)
+        self._loaded = scene if keep.all() else None
         self._slot_owner[:] = -1
         self._slot_owner[: keep.sum()] = scene.owner[keep]
         self._slot_kind[: keep.sum()] = scene.column[keep]
@@ -336,6 +354,10 @@ class RobotCell:
         return self.part_options(self.scene(assembly), part, motions)
 
     def part_options(self, scene: Scene, part: int, motions: list[Motion]) -> list[PlacementOption]:
+        """The options of one part of a scene `scene()` built (loaded again if another one
+        was loaded since: the MuJoCo slots hold one scene at a time)."""
+        if self._loaded is not scene:
+            self._load(scene, scene.everything())
         assembly = scene.assembly
         grasps = self.grasps(assembly, part)
         # Motions share segments (the same path making other joints, the lower stretch of a
@@ -442,6 +464,9 @@ class RobotCell:
         starts = np.cumsum([0, *per])[:-1]
         tcp = np.concatenate([np.asarray(g.tcp) + o for g in grasps for o in offsets]) * mjcf.MM
         yaw = np.repeat([g.yaw for g in grasps], per.sum() // n_grasps)
+        # The carriage's offset per sample (mm along y): the IK sees the TCP from the moved base.
+        carried = np.repeat([self.carriage(arm, g) for g in grasps], per.sum() // n_grasps)
+        tcp[:, 1] -= carried * mjcf.MM
         q, ok = kin.top_down_ik(tcp, yaw)
         # Per branch, grasp and segment: the IK holds at every sample; then per motion.
         holds = np.logical_and.reduceat(ok, starts, axis=1).reshape(len(ok), n_grasps, -1)
@@ -459,10 +484,13 @@ class RobotCell:
             rows = np.arange(sizes.sum()) + np.repeat(cells - first, sizes)
             owner_of = np.repeat(np.arange(len(b_idx)), sizes)
             poses = q[np.repeat(b_idx, sizes), rows]
-            near = self._near(scene, part, kin.link_points(poses) / mjcf.MM)
+            points = kin.link_points(poses) / mjcf.MM
+            points[..., 1] += carried[rows, None]
+            near = self._near(scene, part, points)
             adr = self._qpos[arm]
             for k in np.flatnonzero(near):
                 self.data.qpos[adr] = poses[k]
+                self._move_carriage(arm, carried[rows[k]])
                 cell = (b_idx[owner_of[k]], g_idx[owner_of[k]], s_idx[owner_of[k]])
                 for link, owner, kind in self._contacts(arm):
                     if owner == -1:
@@ -472,6 +500,7 @@ class RobotCell:
                             np.int64(1) << owner
                         )
             self.data.qpos[adr] = 0.0
+            self._move_carriage(arm, 0.0)
         branches = np.full((n_grasps, len(through), self.config.max_branches), -1)
         rank = np.cumsum(keep, axis=0) - 1
         b_of, g_of, m_of = np.nonzero(keep)
@@ -598,7 +627,8 @@ class RobotCell:
         self.data.qpos[self._tool_qpos] = park
         tcp = tcp_samples(grasp.tcp, motion, self.config.arm_sample_step) * mjcf.MM
         for arm, kin in enumerate(self.arms):
-            q, ok = kin.top_down_ik(tcp, grasp.yaw)
+            offset = self.carriage(arm, grasp)
+            q, ok = kin.top_down_ik(tcp - np.array([0.0, offset * mjcf.MM, 0.0]), grasp.yaw)
             valid = np.flatnonzero(ok.all(axis=1))[: self.config.max_branches]
             if not len(valid):
                 if not on["reach"]:
@@ -606,6 +636,7 @@ class RobotCell:
                 continue
             if not on["arm_links"]:
                 return True
+            self._move_carriage(arm, offset)  # check_placement resets every qpos
             for branch in valid:
                 clear = True
                 for sample in q[branch]:
@@ -625,14 +656,17 @@ class RobotCell:
         scene = self.scene(assembly)
         grasp = self.grasps(assembly, part)[option.grasp]
         angles = {a: np.zeros(7) for a in range(self.n_arms)}
+        offset = 0.0
         if option.arm >= 0 and option.branch >= 0:
-            q, _ = self.arms[option.arm].top_down_ik(
-                np.asarray(grasp.tcp)[None] * mjcf.MM, grasp.yaw
-            )
+            offset = self.carriage(option.arm, grasp)
+            tcp = (np.asarray(grasp.tcp) - np.array([0.0, offset, 0.0]))[None] * mjcf.MM
+            q, _ = self.arms[option.arm].top_down_ik(tcp, grasp.yaw)
             angles[option.arm] = q[option.branch, 0].copy()
         self.data.qpos[:] = 0.0
         for a, q in angles.items():
             self.data.qpos[self._qpos[a]] = q
+        if option.arm >= 0:
+            self._move_carriage(option.arm, offset)
         mujoco.mj_kinematics(self.model, self.data)
         bodies = {
             self.model.body(b).name: (

@@ -9,7 +9,7 @@ an assembly under the constraints of the robot cell, stored as the reachable-sta
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -55,8 +55,24 @@ class Simulator:
         self.tolerance = float(self.cell.config.touch_tolerance)
         self.generator = StructureGenerator(tolerance=self.tolerance, **dict(generator))
 
-    def generate(self, n_parts: int, rng: np.random.Generator) -> Assembly:
-        return self.generator.generate(n_parts, rng)
+    def generate(
+        self,
+        n_parts: int,
+        rng: np.random.Generator,
+        frame_ok: Callable[[Assembly], bool] | None = None,
+    ) -> Assembly:
+        """A frame of `n_parts`; a frame built in sections (`generator.section_parts`) takes
+        only sections this cell can build in turn (`buildable_piece`) and, if given, that
+        leave a frame `frame_ok` accepts as it grows."""
+        return self.generator.generate(n_parts, rng, self.buildable_piece, frame_ok)
+
+    def buildable_piece(self, piece: Assembly, head: int) -> bool:
+        """Some order of `piece` starts with its part 0 and places its first `head` parts
+        before the others (grace/simulation/sections.py)."""
+        truth = self.truth(piece, first=0)
+        pos = int(np.searchsorted(truth.states, (1 << head) - 1))
+        reached = pos < len(truth.states) and truth.states[pos] == (1 << head) - 1
+        return truth.feasible and reached and bool(truth.completable[pos] or head == piece.n_parts)
 
     def carry_heights(self, assembly: Assembly, scene: Scene | None = None) -> list[float]:
         """Heights (mm) a part may be carried in at and lowered from: `approach_clearance` above
@@ -71,6 +87,15 @@ class Simulator:
         m = self.motion
         heights = self.carry_heights(assembly, scene)
         return insertion_motions(assembly, m.slide_length, m.slide_lead, heights, self.tolerance)
+
+    def truth(self, assembly: Assembly, first: int | None = None) -> GroundTruth:
+        """Every feasible order of `assembly` (those starting with part `first`, if given),
+        without the diagnostics of `label`."""
+        scene = self.cell.scene(assembly)
+        motions = self.motions(assembly, scene)
+        options = [self.cell.part_options(scene, p, motions[p]) for p in range(assembly.n_parts)]
+        touch = touching(assembly, self.tolerance)
+        return feasibility.orders(assembly, options, touch, self.rules, first)
 
     def label(self, assembly: Assembly) -> LabelledAssembly:
         """All feasible orders of `assembly` and the diagnostics of feasibility.label."""

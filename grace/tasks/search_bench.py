@@ -8,10 +8,12 @@ search ordered by the contact heuristic (`heuristic`) and by random part order w
 learnt blocks (`dfs_blocks`, `dfs`: uninformed depth-first search), the network without
 verification (`grace_unverified`: its most probable sequence, then checked) and the ground
 truth's brute force (`brute_force`). Larger unlabelled assemblies (`task.large_sizes`, no brute
-force there) are planned by `task.large_planners` under the planner's own budget. Writes
-search_bench.json (per assembly and summarised per size, grace/evaluation/search_bench.py) and
-search_bench.png; returns the GRACE search's success rate at 2N checks on the largest labelled
-size.
+force there) are planned by `task.large_planners` under the planner's own budget; with
+`task.large_feasible=true` they are drawn with a verified order (grace/planning/
+feasible_frames.py) and summarised as feasible ones. Writes
+search_bench.json (per assembly and summarised per size, grace/evaluation/search_bench.py), its
+tables as search_bench.md and search_bench.png; returns the GRACE search's success rate at 2N
+checks on the largest labelled size.
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ from grace.evaluation.search_bench import (
     AssemblyRuns,
     planner_set,
     run_planners,
+    search_bench_markdown,
     summarise,
     summary_line,
 )
@@ -43,6 +46,7 @@ from grace.model.checkpoints import load_model
 from grace.model.kept import find_checkpoint
 from grace.model.scoring import make_scorer
 from grace.planning.cell_steps import SimulatorSteps
+from grace.planning.feasible_frames import FeasibleFrames
 from grace.planning.search import Outcome
 from grace.visualisation.search_plots import search_bench_plot
 
@@ -60,6 +64,7 @@ class SearchBenchSettings(TaskSettings):
     data_seed: int = MISSING  # their data seed (not the training data's)
     large_sizes: Any = None  # size → unlabelled assemblies (no brute force)
     default_large_sizes: Any = None
+    large_feasible: bool = False  # draw them feasible (grace/planning/feasible_frames.py)
     planners: list[str] = MISSING
     large_planners: list[str] = MISSING
     budgets: list[int] = MISSING  # multiples of N
@@ -118,16 +123,22 @@ def run(cfg: DictConfig) -> float | None:
     )
     max_parts = int(OmegaConf.select(cfg, "simulator.cell.max_parts", default=0) or 0)
     skipped = {}
+    frames = FeasibleFrames(replace(search, k=1), heuristic) if task.large_feasible else None
     for size, count in sorted((int(k), int(v)) for k, v in (task.large_sizes or {}).items()):
         if max_parts and size > max_parts:
             skipped[size] = f"simulator.cell.max_parts={max_parts}"
             log.warning("A%d skipped: raise simulator.cell.max_parts to %d", size, size)
             continue
         for index in range(count):
-            assembly = simulator.generate(size, assembly_rng(int(task.data_seed), size, index))
+            rng = assembly_rng(int(task.data_seed), size, index)
+            assembly = (
+                frames.draw(simulator, size, rng) if frames else simulator.generate(size, rng)
+            )
             assembly.name = f"A{size}-{index:06d}"
             runs = run_planners(assembly, large, oracle)
-            records.append(AssemblyRuns(assembly.name, size, None, None, runs))
+            feasible = True if frames else None  # a drawn frame has a verified order
+            records.append(AssemblyRuns(assembly.name, size, feasible, None, runs))
+            log.info("%s planned (%.0f s)", assembly.name, time.perf_counter() - begin)
     seconds = time.perf_counter() - begin
     summary = summarise(records, list(task.budgets), task.reference)
     result = {
@@ -144,6 +155,7 @@ def run(cfg: DictConfig) -> float | None:
         "assemblies": [r.to_json() for r in records],
     }
     write_text_atomic(out_dir / "search_bench.json", json.dumps(result, indent=2) + "\n")
+    write_text_atomic(out_dir / "search_bench.md", search_bench_markdown(summary))
     search_bench_plot(summary, out_dir / "search_bench.png")
     budgets = " ".join(f"{b:>5}" for b in result["budgets"])
     print(f"size class      planner           {budgets}  checks      s  (medians)")
@@ -156,7 +168,7 @@ def run(cfg: DictConfig) -> float | None:
                   f"max {figures['max_seconds']:.2f} s")  # fmt: skip
     print(
         f"{len(records)} assemblies in {seconds:.0f} s, peak memory {result['peak_rss_mb']:.0f} MB;"
-        f" search_bench.json and search_bench.png in {out_dir}"
+        f" search_bench.json, .md and .png in {out_dir}"
     )
     largest = max((s for s, e in summary.items() if "feasible" in e), key=int, default=None)
     if largest is None or "grace" not in names:
