@@ -122,7 +122,7 @@ def run_fold(
     ks = [int(k) for k in cfg.task.ks]
     policies = _policies(cfg, module, fold)
     metrics = {
-        name: evaluate_by_size(scorer, test, ks, cfg.task.threshold)
+        name: evaluate_by_size(scorer, test, ks, cfg.task.threshold, cfg.seed + fold.index)
         for name, scorer in policies.items()
     }
     estimator = OmegaConf.select(cfg, "classifier.estimator")
