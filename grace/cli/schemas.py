@@ -177,6 +177,7 @@ class RootConfig:
     protocol: Any = None
     classifier: Any = None
     planner: Any = None
+    threshold: Any = None
     scale: Any = None
     tune: Any = None
 
@@ -206,6 +207,7 @@ def heavy_schemas() -> dict[str, type]:
     from grace.model.grace_pyg import NetConfig
     from grace.model.module import GraceModule
     from grace.planning.search import VerifiedSearch
+    from grace.planning.thresholds import AbsoluteThreshold, RelativeThreshold
     from grace.planning.topk import TopKListing
 
     return {
@@ -224,6 +226,8 @@ def heavy_schemas() -> dict[str, type]:
         "tune": TuneConfig,
         "planner/verified": schema(VerifiedSearch),
         "planner/topk": schema(TopKListing),
+        "threshold/absolute": schema(AbsoluteThreshold),
+        "threshold/relative": schema(RelativeThreshold),
     } | task_schemas()
 
 

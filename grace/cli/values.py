@@ -39,6 +39,7 @@ BOUNDS = (
     Bound("planner.k", 1, fix="planner.k=1 or more (how many orders task=plan returns)"),
     Bound("task.threshold", 0, 1, fix="a λ in [0, 1] (step scores are probabilities)"),
     Bound("planner.threshold", 0, 1, fix="a λ in [0, 1] (step scores are probabilities)"),
+    Bound("threshold.floor", 0, 1, fix="a floor in [0, 1] (step scores are probabilities)"),
     Bound("trainer.max_epochs", 1, fix="trainer.max_epochs=1 or more (0 trains nothing)"),
     Bound(
         "datamodule.dead_end_target",
