@@ -16,7 +16,13 @@ import hydra
 from omegaconf import DictConfig
 
 from grace import CONF_DIR
-from grace.cli.preflight import debugging, preflight, run_dir_overrides, user_errors
+from grace.cli.preflight import (
+    debugging,
+    preflight,
+    run_dir_overrides,
+    shell_override,
+    user_errors,
+)
 from grace.cli.signals import (
     exit_interrupted,
     held_while_loading,
@@ -44,7 +50,8 @@ def run(cfg: DictConfig) -> float | None:
 
 
 def _interrupted(out: str) -> NoReturn:
-    resume = f"grace: interrupted; to resume: the same command with paths.output_dir={out}"
+    where = shell_override("paths.output_dir", out)
+    resume = f"grace: interrupted; to resume: the same command with {where}"
     exit_interrupted(resume, sys.stdout)
 
 

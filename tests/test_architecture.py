@@ -197,3 +197,93 @@ def test_no_other_layer_nor_its_tests_imports_a_task_module():
             if name.startswith("grace.tasks") and module != "grace.__main__":
                 wrong.append(f"{path}:{line}: imports {name}")
     assert not wrong, "\n".join(wrong)
+
+
+CONFIG_READERS = {
+    "grace.simulation.cell_config": "the simulator's own typed config (cell, generator), its "
+    "schemas registered with Hydra and checked by OmegaConf",
+    "grace.simulation.bench": "`python -m grace.simulation.bench`: composes the simulator "
+    "config it times (the world's benchmark, run without a task)",
+    "grace.simulation.reference": "`python -m grace.simulation.reference`: composes the "
+    "simulator config it checks against the uncached MuJoCo reference",
+    "grace.data.store": "rebuilds the simulator in each worker process from its config node "
+    "(a MuJoCo model does not cross processes)",
+    "grace.model.kept": "reads the config a training run kept beside its checkpoint",
+    "grace.model.checkpoints": "rebuilds a kept model from that config",
+    "grace.evaluation.book": "reads run folders' Hydra records (overrides, config sources) "
+    "to print the commands that made them",
+}
+"""Modules below cli/ that read a config (docs/contributing.md, Layout), each with its reason.
+Below cli/ code otherwise gets objects, enums and plain values."""
+
+CONFIG_LIBRARIES = ("omegaconf", "hydra")
+
+
+def config_reads(path: Path) -> list[tuple[int, str]]:
+    """(line, module) of every import of a config library in `path`, nested ones included;
+    `from omegaconf import MISSING` (a schema's marker of a required field) reads nothing."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            names = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom) and not node.level:
+            if node.module == "omegaconf" and [a.name for a in node.names] == ["MISSING"]:
+                continue
+            names = [node.module or ""]
+        else:
+            continue
+        found += [(node.lineno, n) for n in names if n.split(".")[0] in CONFIG_LIBRARIES]
+    return found
+
+
+def test_the_config_rule_sees_every_kind_of_import(tmp_path):
+    source = tmp_path / "mod.py"
+    source.write_text(
+        "from omegaconf import MISSING\nimport hydra.utils\n"
+        "def f():\n    from omegaconf import OmegaConf\n"
+    )
+    assert config_reads(source) == [(2, "hydra.utils"), (4, "omegaconf")]
+
+
+def test_only_the_command_line_reads_the_config():
+    """Only cli/, tasks/ and the listed CONFIG_READERS import a config library; a listed module
+    that no longer does is struck off the list."""
+    readers = {
+        module
+        for module, path in modules().items()
+        if module not in LEAVES and layer(module) < LAYERS.index("cli") and config_reads(path)
+    }
+    unlisted = sorted(readers - CONFIG_READERS.keys())
+    wrong = [f"{modules()[m]}:{line}: imports {name}" for m in unlisted for line, name in
+             config_reads(modules()[m])]  # fmt: skip
+    assert not wrong, "a layer below cli/ reads the config:\n" + "\n".join(wrong)
+    assert not CONFIG_READERS.keys() - readers, "listed readers that read no config"
+
+
+DYNAMIC_IMPORTERS = {
+    "grace.cli.schemas": "a task's schema class, found through its config's `run._target_` "
+    "(as Hydra finds every target), so cli/ names no task module",
+}
+"""Modules that import by name at run time (importlib), each with its reason: the import rule
+above cannot see such imports, so each is listed here."""
+
+
+def dynamic_imports(path: Path) -> list[int]:
+    """Lines of every call of importlib.import_module, __import__ or Hydra's locators."""
+    names = {"import_module", "__import__", "_locate", "get_class", "get_method", "get_object"}
+    lines_found = []
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Call):
+            func = node.func
+            name = func.attr if isinstance(func, ast.Attribute) else getattr(func, "id", "")
+            if name in names:
+                lines_found.append(node.lineno)
+    return lines_found
+
+
+def test_every_dynamic_import_is_listed():
+    found = {m for m, path in modules().items() if dynamic_imports(path)}
+    assert found == DYNAMIC_IMPORTERS.keys(), (
+        f"dynamic imports outside the list: {sorted(found - DYNAMIC_IMPORTERS.keys())}; "
+        f"listed but gone: {sorted(DYNAMIC_IMPORTERS.keys() - found)}"
+    )

@@ -22,8 +22,9 @@ from omegaconf import DictConfig, OmegaConf, open_dict
 from grace.data.atomic import write_text_atomic
 from grace.domain.sample import LabelledAssembly
 from grace.errors import UserError
-from grace.model.checkpoints import CHECKPOINT, KEPT_CONFIG, checkpoint_weights
+from grace.model.checkpoints import checkpoint_weights
 from grace.model.fit import fit
+from grace.model.kept import CHECKPOINT, KEPT_CONFIG, read_kept_config
 from grace.model.module import GraceModule
 from grace.model.resume import LastCheckpoint
 
@@ -151,7 +152,7 @@ def resume_from(cfg: DictConfig, out_dir: str | Path, callbacks: Sequence[object
     if last is None or not last.exists():
         return None
     record = Path(out_dir) / KEPT_CONFIG
-    before = OmegaConf.to_container(OmegaConf.load(record)) if record.exists() else None
+    before = OmegaConf.to_container(read_kept_config(record, ())) if record.exists() else None
     if before is not None and _results_keys(before) != _results_keys(_resolved(cfg)):
         raise UserError(
             f"{last} was written by a run of another config ({record}); fix: the same "
@@ -193,7 +194,7 @@ def kept_module(cfg: DictConfig, fold_dir: str | Path, validated: bool = True) -
             "of an experiment run of this protocol whose folds finished training"
         )
     ignored = (*RUN_ONLY, *PLANNING_ONLY)
-    before = _flat(_results_keys(OmegaConf.to_container(OmegaConf.load(kept)), ignored))
+    before = _flat(_results_keys(OmegaConf.to_container(read_kept_config(kept, ())), ignored))
     now = _flat(_results_keys(_resolved(fit_config(cfg, fold_dir, validated)), ignored))
     differ = sorted(k for k in before.keys() | now.keys() if before.get(k) != now.get(k))
     if differ:

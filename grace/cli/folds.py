@@ -16,12 +16,11 @@ from typing import Any
 
 import numpy as np
 from joblib import Parallel, delayed
-from lightning.pytorch import seed_everything
 from omegaconf import DictConfig, OmegaConf
 from tqdm.contrib.logging import logging_redirect_tqdm
 
 from grace.cli.checks import protocol_split
-from grace.cli.determinism import cap_threads
+from grace.cli.determinism import cap_threads, seed_all
 from grace.cli.logs import log_to_file
 from grace.cli.progress import ExperimentProgress
 from grace.cli.signals import as_worker
@@ -58,7 +57,7 @@ def start_fold(cfg: DictConfig, fold: Fold, threads: int, parent: int) -> None:
     if os.getpid() != parent:
         as_worker()
         log_to_file(cfg.paths.log_file, f"fold {fold.index}")
-    seed_everything(int(cfg.seed) + fold.index, workers=True, verbose=False)
+    seed_all(int(cfg.seed) + fold.index)
     cap_threads(threads)
 
 

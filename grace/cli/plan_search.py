@@ -3,7 +3,8 @@
 The policy orders the steps, the simulator checks each before it is taken: the user gets
 verified orders first, each with the network's probability and the simulator's verdict on every
 step, or "infeasible" (every order refuted) or "not found within budget", never an order the
-simulator refuses. Writes plan.json and plan.rrd (the search and the verified order in the cell).
+simulator refuses. Writes plan.json and prints the answer, then (`task.recording=true`) plan.rrd:
+the search and the verified order in the cell.
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from grace.planning.search import Outcome, VerifiedSearch
 from grace.planning.sequences import Scorer
 from grace.planning.topk import FULL_TABLE_MAX_PARTS, lazy_scores
 from grace.simulation.simulator import Simulator
-from grace.visualisation.search_recording import SearchRecord, search_record, write_search_recording
+from grace.visualisation.records import SearchRecord, search_record, with_cell
 
 log = logging.getLogger(__name__)
 
@@ -117,8 +118,10 @@ def plan_verified(
     simulator: Simulator,
     sources: dict[str, Any],
     out_dir: Path,
+    recording: bool,
 ) -> None:
-    """Search `assembly`, write plan.json and plan.rrd into `out_dir`, print the result."""
+    """Search `assembly`, write plan.json into `out_dir` and print the result; then, with
+    `recording`, plan.rrd."""
     n = assembly.n_parts
     if n > FULL_TABLE_MAX_PARTS and planner.max_checks is None and planner.max_seconds is None:
         log.warning(
@@ -134,15 +137,15 @@ def plan_verified(
     oracle = SimulatorSteps(simulator, assembly)
     result = planner.plan(scorer, assembly, oracle)
     seconds = time.perf_counter() - start
-    record = search_record("plan", result, lazy_scores(scorer, assembly), oracle, truth)
+    scores = lazy_scores(scorer, assembly)
+    record = search_record("plan", result, scores, oracle, truth, cell=False)
     timing = {
         "seconds": seconds,  # the search: scoring, step checks, the cell queries (model loaded)
         "first_seconds": result.first_seconds,
-        "record_seconds": time.perf_counter() - start - seconds,  # reasons and cell poses
+        "record_seconds": time.perf_counter() - start - seconds,  # the refusals' reasons
     }
     out = verified_json(record, planner, truth, {**sources, **timing})
     write_text_atomic(out_dir / "plan.json", json.dumps(out, indent=2) + "\n")
-    write_search_recording(record, out_dir / "plan.rrd", out_dir.name)
     cost = f"{result.checks} simulator step checks, {seconds:.2f} s"
     if result.outcome == Outcome.verified:
         print(f"{assembly.name}: {n} parts, {len(result.orders)} verified order(s) ({cost})")
@@ -157,4 +160,11 @@ def plan_verified(
         order = " ".join(str(p) for p in entry["sequence"])
         verdict = "every step feasible" if entry["simulator"]["feasible"] else "REFUSED"
         print(f"{entry['rank']:3d}. {order}  p={entry['probability']:.4g}  simulator: {verdict}")
-    print(f"loading {sources['load_seconds']:.2f} s; plan.json and plan.rrd in {out_dir}")
+    print(f"loading {sources['load_seconds']:.2f} s; plan.json in {out_dir}", flush=True)
+    if recording:
+        # rerun loads only to record; the cell's poses are drawn, never answered
+        from grace.visualisation.search_recording import write_search_recording
+
+        record.order = with_cell(record.order, scores, oracle.checker, truth)
+        write_search_recording(record, out_dir / "plan.rrd", out_dir.name)
+        print(f"plan.rrd in {out_dir}")

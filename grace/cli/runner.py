@@ -4,15 +4,14 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 from hydra.core.hydra_config import HydraConfig
 from hydra.utils import instantiate
-from lightning.pytorch import seed_everything
 from omegaconf import MISSING, DictConfig
 
 from grace.cli.checks import check_config, ignored_options
-from grace.cli.determinism import cap_threads
+from grace.cli.determinism import cap_threads, seed_all
 from grace.cli.logs import quiet_terminal
 
 log = logging.getLogger(__name__)
@@ -21,10 +20,16 @@ log = logging.getLogger(__name__)
 @dataclass
 class TaskSettings:
     """What every `task` config holds (the base of each task's schema): its name, which names
-    the run folder, and `run`, the task function as a `_partial_` target."""
+    the run folder, and `run`, the task function as a `_partial_` target.
+
+    `reads` (a class attribute, no config key) names the config groups with heavy schemas that
+    the task reads (grace/cli/schemas.py, GROUP_SCHEMAS), None for all: the others compose
+    untyped and their modules are not imported, which saves a task that trains nothing the
+    seconds Lightning takes to load."""
 
     name: str = MISSING
     run: Any = MISSING
+    reads: ClassVar[tuple[str, ...] | None] = None
 
 
 def task_overrides() -> list[str]:
@@ -36,7 +41,7 @@ def run_task(cfg: DictConfig) -> float | None:
     """Check the config (grace/cli/checks.py), seed, cap the threads, run `cfg.task.run(cfg)`;
     its return value is the sweep objective."""
     quiet_terminal(cfg.paths.log_file)
-    seed_everything(cfg.seed, workers=True, verbose=False)
+    seed_all(cfg.seed)
     cap_threads(cfg.threads)
     log.info("task %s", cfg.task.name)
     for warning in ignored_options(cfg, task_overrides()):

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import enum
+import functools
 import importlib
 import inspect
 import types
@@ -27,8 +28,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import yaml
 from hydra.core.config_store import ConfigStore
-from omegaconf import MISSING, OmegaConf
+from omegaconf import MISSING
 
 from grace import CONF_DIR
 from grace.cli.signals import held_while_loading
@@ -194,52 +196,113 @@ def light_schemas() -> dict[str, type]:
     }
 
 
-def heavy_schemas() -> dict[str, type]:
-    """The schemas of components built on torch and Lightning (their modules take seconds to
-    import, hence imported here, on demand)."""
-    from lightning.pytorch import Trainer
-    from lightning.pytorch.callbacks import EarlyStopping, ModelCheckpoint
-    from lightning.pytorch.loggers import CSVLogger, TensorBoardLogger
-
-    from grace.cli.tune_space import TuneConfig
-    from grace.graphs.datamodule import StateDataModule
+def _model_schemas() -> dict[str, type]:
     from grace.graphs.encoding import GraphEncoding
     from grace.model.grace_pyg import NetConfig
     from grace.model.module import GraceModule
-    from grace.planning.search import VerifiedSearch
-    from grace.planning.thresholds import AbsoluteThreshold, RelativeThreshold
-    from grace.planning.topk import TopKListing
 
     return {
         "model": schema(
             GraceModule,
             nested={"net": schema(NetConfig), "graph": schema(GraphEncoding)},
-        ),
+        )
+    }
+
+
+def _datamodule_schemas() -> dict[str, type]:
+    from grace.graphs.datamodule import StateDataModule
+
+    return {
         "datamodule": schema(
             StateDataModule, exclude=("train", "val", "enc", "collate"), meta={"_partial_": True}
-        ),
-        "trainer": schema(Trainer, exclude=("callbacks", "logger", "plugins")),
+        )
+    }
+
+
+def _trainer_schemas() -> dict[str, type]:
+    from lightning.pytorch import Trainer
+
+    return {"trainer": schema(Trainer, exclude=("callbacks", "logger", "plugins"))}
+
+
+def _callbacks_schemas() -> dict[str, type]:
+    from lightning.pytorch.callbacks import EarlyStopping, ModelCheckpoint
+
+    return {
         "callbacks/early_stopping": schema(EarlyStopping),
         "callbacks/model_checkpoint": schema(ModelCheckpoint),
-        "logger/csv": schema(CSVLogger),
-        "logger/tensorboard": schema(TensorBoardLogger),
-        "tune": TuneConfig,
-        "planner/verified": schema(VerifiedSearch),
-        "planner/topk": schema(TopKListing),
+    }
+
+
+def _logger_schemas() -> dict[str, type]:
+    from lightning.pytorch.loggers import CSVLogger, TensorBoardLogger
+
+    return {"logger/csv": schema(CSVLogger), "logger/tensorboard": schema(TensorBoardLogger)}
+
+
+def _tune_schemas() -> dict[str, type]:
+    from grace.cli.tune_space import TuneConfig
+
+    return {"tune": TuneConfig}
+
+
+def _planner_schemas() -> dict[str, type]:
+    from grace.planning.search import VerifiedSearch
+    from grace.planning.topk import TopKListing
+
+    return {"planner/verified": schema(VerifiedSearch), "planner/topk": schema(TopKListing)}
+
+
+def _threshold_schemas() -> dict[str, type]:
+    from grace.planning.thresholds import AbsoluteThreshold, RelativeThreshold
+
+    return {
         "threshold/absolute": schema(AbsoluteThreshold),
         "threshold/relative": schema(RelativeThreshold),
-    } | task_schemas()
+    }
 
 
-def task_schemas(conf_dir: Path = CONF_DIR) -> dict[str, type]:
-    """`task/<name>` → the schema of each task config: the TaskSettings subclass defined in the
-    module of its `run` target. The task layer sits above this one, so its modules are found the
-    way Hydra finds every target: by the name the config gives."""
+GROUP_SCHEMAS: dict[str, Callable[[], dict[str, type]]] = {
+    "model": _model_schemas,
+    "datamodule": _datamodule_schemas,
+    "trainer": _trainer_schemas,
+    "callbacks": _callbacks_schemas,
+    "logger": _logger_schemas,
+    "tune": _tune_schemas,
+    "planner": _planner_schemas,
+    "threshold": _threshold_schemas,
+}
+"""Config group → the schemas of its components, built on torch and Lightning (their modules
+take seconds to import, hence imported here, on demand)."""
+
+
+def heavy_schemas(run: str | None = None) -> dict[str, type]:
+    """The schemas of the groups built on torch and Lightning and of the tasks; with `run` (a
+    task config's `run._target_`), only that task's schema and those of the groups it reads (its
+    settings' `reads`), so that a task reading no Lightning component (task=plan) does not wait
+    seconds for Lightning to load."""
+    tasks = task_schemas(run=run)
+    reads = next(iter(tasks.values())).reads if run is not None and tasks else None
+    out: dict[str, type] = {}
+    for group, build in GROUP_SCHEMAS.items():
+        if reads is None or group in reads:
+            out |= build()
+    return out | tasks
+
+
+def task_schemas(conf_dir: Path = CONF_DIR, run: str | None = None) -> dict[str, type]:
+    """`task/<name>` → the schema of each task config (only the one whose `run._target_` is
+    `run`, if given): the TaskSettings subclass defined in the module of its `run` target. The
+    task layer sits above this one, so its modules are found the way Hydra finds every target:
+    by the name the config gives."""
     from grace.cli.runner import TaskSettings
 
     out = {}
     for path in sorted((conf_dir / "task").glob("*.yaml")):
-        module = importlib.import_module(OmegaConf.load(path).run._target_.rpartition(".")[0])
+        target = _yaml(path)["run"]["_target_"]
+        if run is not None and target != run:
+            continue
+        module = importlib.import_module(target.rpartition(".")[0])
         found = [
             kind
             for kind in vars(module).values()
@@ -257,15 +320,22 @@ def task_schemas(conf_dir: Path = CONF_DIR) -> dict[str, type]:
     return out
 
 
-def referenced_schemas(conf_dir: Path = CONF_DIR) -> set[str]:
+def _yaml(path: Path) -> dict[str, Any]:
+    """A config file's plain content (libyaml's parser: a tenth of OmegaConf.load's time, which
+    counts when every file of the tree is read at each start)."""
+    return yaml.load(path.read_text(), Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader)) or {}
+
+
+@functools.cache
+def referenced_schemas(conf_dir: Path = CONF_DIR) -> frozenset[str]:
     """Every `schema/<group>` path that a YAML file of the config tree lists in its defaults."""
     found = set()
     for path in conf_dir.rglob("*.yaml"):
-        for entry in OmegaConf.load(path).get("defaults", None) or []:
+        for entry in _yaml(path).get("defaults", None) or []:
             text = entry if isinstance(entry, str) else next(iter(entry), "")
             if isinstance(text, str) and text.startswith("/schema/"):
                 found.add(text.removeprefix("/").split("@")[0])
-    return found
+    return frozenset(found)
 
 
 def _stored(store: ConfigStore, path: str) -> bool:
@@ -276,22 +346,24 @@ def _stored(store: ConfigStore, path: str) -> bool:
     return f"{name}.yaml" in node
 
 
-def register_schemas(light: bool = False) -> None:
+def register_schemas(light: bool = False, run: str | None = None) -> None:
     """Store the root schema as `grace_schema` and each group's as `schema/<group>`.
 
     `light=True` stores the light schemas only, and an open placeholder (any keys, no types) for
     every other schema the configs refer to, so the config composes without torch or Lightning.
+    `run` (a task config's `run._target_`) stores the schemas that task reads (heavy_schemas),
+    and placeholders for the others.
     """
     register_simulator_schemas()
     store = ConfigStore.instance()
     store.store(name="grace_schema", node=RootConfig)
     groups: dict[str, Any] = light_schemas()
-    if light:
+    if not light:
+        with held_while_loading():
+            groups |= heavy_schemas(run)
+    if light or run is not None:
         open_paths = {p for p in referenced_schemas() if not _stored(store, p)}
         groups = {path.removeprefix("schema/"): {} for path in open_paths} | groups
-    else:
-        with held_while_loading():
-            groups |= heavy_schemas()
     for path, node in groups.items():
         group, _, name = f"schema/{path}".rpartition("/")
         store.store(group=group, name=name, node=node)

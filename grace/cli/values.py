@@ -3,73 +3,49 @@
 Run by the preflight (grace/cli/preflight.py) before the run folder exists, so a seed of -1, a
 λ of 1.5 or a data folder that is a file stops the command in one line naming the key and the
 fix, with nothing written; the same checks run again inside the run (grace/cli/runner.py).
-Ranges and why: docs/operations.md, "Bad input".
+The ranges themselves: grace/cli/ranges.py; docs/operations.md, "Bad input".
 """
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
 from pathlib import Path
 
-from omegaconf import DictConfig, OmegaConf
+from omegaconf import DictConfig, ListConfig, OmegaConf
+from omegaconf.errors import OmegaConfBaseException
 
+from grace.cli.ranges import RANGES, number
 from grace.data.folders import obstacle
 from grace.errors import UserError
 
 
-@dataclass(frozen=True)
-class Bound:
-    """`key` must lie in [low, high] (or [low, high) when `open_high`); absent keys pass."""
-
-    key: str
-    low: float
-    high: float = math.inf
-    open_high: bool = False
-    fix: str = ""
-
-    def interval(self) -> str:
-        high = "∞" if math.isinf(self.high) else f"{self.high:g}"
-        return f"[{self.low:g}, {high}{')' if self.open_high or math.isinf(self.high) else ']'}"
+def _numbers(value: object) -> list[float] | None:
+    """The numbers of `value` to check: a number, or each number of a list; None for anything
+    else (a string the typed compose refuses, null, a mapping, an unresolvable list)."""
+    if isinstance(value, ListConfig):
+        try:
+            value = OmegaConf.to_container(value, resolve=True)
+        except OmegaConfBaseException:
+            return None
+    items = value if isinstance(value, list) else [value]
+    numeric = all(isinstance(v, int | float) and not isinstance(v, bool) for v in items)
+    return items if items and numeric else None
 
 
-BOUNDS = (
-    Bound("seed", 0, fix="seed=0 (any integer ≥ 0; numpy's generators take no negative seed)"),
-    Bound("threads", 1, fix="threads=1 or more (at most the machine's cores)"),
-    Bound("planner.k", 1, fix="planner.k=1 or more (how many orders task=plan returns)"),
-    Bound("task.threshold", 0, 1, fix="a λ in [0, 1] (step scores are probabilities)"),
-    Bound("planner.threshold", 0, 1, fix="a λ in [0, 1] (step scores are probabilities)"),
-    Bound("threshold.floor", 0, 1, fix="a floor in [0, 1] (step scores are probabilities)"),
-    Bound("trainer.max_epochs", 1, fix="trainer.max_epochs=1 or more (0 trains nothing)"),
-    Bound(
-        "datamodule.dead_end_target",
-        0,
-        0.5,
-        open_high=True,
-        fix="a target in [0, 0.5) (0 keeps the labels; ≥ 0.5 would count a dead end as valid)",
-    ),
-)
-"""The numbers the preflight checks (grace/graphs/datamodule.py checks dead_end_target too, for
-callers outside the command line)."""
-
-
-def check_bounds(cfg: DictConfig) -> None:
-    """A UserError naming the first key of BOUNDS whose value lies outside its range."""
-    for bound in BOUNDS:
-        value = OmegaConf.select(cfg, bound.key, throw_on_resolution_failure=False)
-        if not isinstance(value, int | float) or isinstance(value, bool):
+def check_ranges(cfg: DictConfig) -> None:
+    """A UserError naming the first key of RANGES (grace/cli/ranges.py) whose value lies
+    outside its range; keys absent from `cfg`, null or not yet resolvable pass."""
+    for key, bound in RANGES.items():
+        value = OmegaConf.select(cfg, key, throw_on_resolution_failure=False)
+        items = _numbers(value)
+        bad = [v for v in items or () if not bound.holds(v)]
+        if not bad:
             continue
-        above = value >= bound.high if bound.open_high else value > bound.high
-        if value < bound.low or above or math.isnan(value):
-            raise UserError(f"{bound.key}={value} is outside {bound.interval()}; fix: {bound.fix}")
-
-
-def check_override_bounds(overrides: list[str]) -> None:
-    """:func:`check_bounds` on the command line's own `key=value` overrides of BOUNDS' keys:
-    the keys of groups whose schemas load with torch are refused in a second, before that."""
-    keys = {bound.key for bound in BOUNDS}
-    mine = [o.removeprefix("++").removeprefix("+") for o in overrides]
-    check_bounds(OmegaConf.from_dotlist([o for o in mine if o.split("=", 1)[0] in keys]))
+        if isinstance(value, ListConfig):
+            kept = [number(v) for v in items if bound.holds(v)] or [number(bound.suggestion())]
+            what, fix = f"{key}={items}: {bad[0]} is", f"[{','.join(kept)}]"
+        else:
+            what, fix = f"{key}={value} is", number(bound.suggestion())
+        raise UserError(f"{what} outside {bound.interval()}; fix: {key}={fix} ({bound.why})")
 
 
 FOLDERS = (("paths.data_dir", " (or GRACE_DATA_DIR)"), ("paths.output_dir", ""))

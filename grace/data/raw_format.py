@@ -9,10 +9,12 @@ One folder per assembly:
   differs from the geometry; import starts from the geometry and lets the rows override it (both
   directions). A value is a distance ≥ 0 (mm) or −1 (orthogonal).
 - `solutions.csv`: one complete order per line, part names separated by `,`.
-- `inter_solutions.csv`: partial orders that reach a dead end (optional on import). Export writes
-  every dead end of the ground-truth DAG, for feasible assemblies too, so that the DAG imports
-  back exactly (GroundTruth.from_orders spans the same states). A dead end contradicts the other
-  lines when the state it ends in (the set of its parts) is left by another line: see
+- `inter_solutions.csv`: partial orders that reach a dead end (optional on import). Export writes,
+  for feasible assemblies too, dead ends that together take every placement step of the
+  ground-truth DAG that no complete order takes (GroundTruth.dead_ends: at most one line per
+  such step, not every dead-end path, whose number grows factorially), so that the DAG imports
+  back exactly (GroundTruth.from_orders spans the same states and steps). A dead end contradicts
+  the other lines when the state it ends in (the set of its parts) is left by another line: see
   :func:`_check_dead_ends`.
 
 Every file may start with a UTF-8 byte-order mark and use `\\r\\n` line ends; blank lines are
@@ -26,12 +28,12 @@ from __future__ import annotations
 
 import codecs
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
 
-from grace.data.atomic import write_text_atomic
+from grace.data.atomic import write_lines_atomic, write_text_atomic
 from grace.domain.assembly import Assembly, Part, PartType
 from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
@@ -130,12 +132,13 @@ def _distances_text(assembly: Assembly) -> str:
     return "".join(line + "\n" for line in lines)
 
 
-def _orders_text(orders: Sequence[Sequence[int]], names: Sequence[str]) -> str:
-    return "".join(",".join(names[p] for p in order) + "\n" for order in orders if order)
+def _order_lines(orders: Iterable[Sequence[int]], names: Sequence[str]) -> Iterator[str]:
+    return (",".join(names[p] for p in order) + "\n" for order in orders if order)
 
 
 def export_raw(sample: LabelledAssembly, folder: str | Path) -> None:
-    """Write `sample` as a raw assembly folder (each file atomically, all built before writing)."""
+    """Write `sample` as a raw assembly folder, each file atomically; the order files line by
+    line as the ground truth lists them (memory stays flat, however many orders)."""
     assembly, truth = sample.assembly, sample.truth
     names = [p.name for p in assembly.parts]
     for name in names:
@@ -146,12 +149,12 @@ def export_raw(sample: LabelledAssembly, folder: str | Path) -> None:
     texts = {
         ASSEMBLY_FILE: _spec_text(assembly),
         DISTANCES_FILE: _distances_text(assembly),
-        SOLUTIONS_FILE: _orders_text(list(truth.orders()), names),
-        DEAD_ENDS_FILE: _orders_text(list(truth.dead_ends()), names),
     }
     folder = Path(folder)
     for file, text in texts.items():
         write_text_atomic(folder / file, text)
+    write_lines_atomic(folder / SOLUTIONS_FILE, _order_lines(truth.orders(), names))
+    write_lines_atomic(folder / DEAD_ENDS_FILE, _order_lines(truth.dead_ends(), names))
 
 
 # ---------------------------------------------------------------- import

@@ -57,6 +57,7 @@ from grace.data.shards import (
     read_shard,
     write_shard,
 )
+from grace.domain.assembly import MIN_PARTS
 from grace.domain.sample import LabelledAssembly
 from grace.errors import UserError
 
@@ -478,7 +479,7 @@ class GeneratedSource:
         if beyond:
             raise UserError(
                 f"dataset.sizes: sizes {beyond} exceed simulator.cell.max_parts={limit} (the "
-                f"cell's part slots); fix: sizes from 1 to {limit}"
+                f"cell's part slots); fix: sizes from {MIN_PARTS} to {limit}"
             )
 
     def generate(self, shard: int | None = None, num_shards: int | None = None) -> Generation:

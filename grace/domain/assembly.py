@@ -27,6 +27,10 @@ from enum import IntEnum, StrEnum
 
 import numpy as np
 
+MIN_PARTS = 2
+"""The fewest parts of an assembly to learn or plan: one part has a single order, and the
+network normalises each state's part features over its parts (InstanceNorm)."""
+
 PROFILE_SECTION_MM = 40.0
 """Side of the square aluminium-profile section (docs/world.md)."""
 

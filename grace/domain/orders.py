@@ -207,15 +207,7 @@ class GroundTruth:
 
     def orders(self, limit: int | None = None) -> Iterator[tuple[int, ...]]:
         """Complete feasible orders in lexicographic order (at most `limit`)."""
-        yield from self._paths("completable", complete=True, limit=limit)
-
-    def dead_ends(self, limit: int | None = None) -> Iterator[tuple[int, ...]]:
-        """Partial orders that reach a state where no part can be placed (`inter_solutions.csv`,
-        docs/raw-format.md)."""
-        yield from self._paths("placeable", complete=False, limit=limit)
-
-    def _paths(self, mask_of: str, complete: bool, limit: int | None) -> Iterator[tuple[int, ...]]:
-        masks = dict(zip(self.states.tolist(), getattr(self, mask_of).tolist(), strict=True))
+        masks = dict(zip(self.states.tolist(), self.completable.tolist(), strict=True))
         full = full_mask(self.n_parts)
         emitted = 0
         stack: list[tuple[int, tuple[int, ...]]] = [(0, ())]
@@ -223,7 +215,7 @@ class GroundTruth:
             state, prefix = stack.pop()
             nxt = masks.get(state, 0)
             if not nxt:
-                if (state == full) == complete and (complete or prefix or state == 0):
+                if state == full:
                     yield prefix
                     emitted += 1
                     if limit is not None and emitted >= limit:
@@ -231,6 +223,53 @@ class GroundTruth:
                 continue
             for part in reversed(mask_to_parts(nxt)):
                 stack.append((state | 1 << part, (*prefix, part)))
+
+    def dead_ends(self) -> Iterator[tuple[int, ...]]:
+        """Partial orders that end where no part can be placed and together take every
+        placement step no complete order takes (`inter_solutions.csv`, docs/raw-format.md):
+        with the complete orders they span the whole DAG, so it imports back exactly.
+
+        Not every dead-end path, whose number grows factorially with the parts, but at most one
+        per such step: a depth-first walk, parts in ascending order, that expands each state
+        once and ends a path at a dead end, or where it enters an already expanded state off the
+        complete orders, completed there by the lowest placeable parts. Paths come out in
+        lexicographic order, one at a time; the walk keeps one entry per state.
+        """
+        placeable = dict(zip(self.states.tolist(), self.placeable.tolist(), strict=True))
+        completable = dict(zip(self.states.tolist(), self.completable.tolist(), strict=True))
+        full = full_mask(self.n_parts)
+
+        def lowest_to_a_dead_end(state: int) -> list[int]:
+            parts = []
+            while nxt := placeable[state]:
+                part = (nxt & -nxt).bit_length() - 1
+                parts.append(part)
+                state |= 1 << part
+            return parts
+
+        path: list[int] = []
+        expanded = {0}
+        stack = [(0, iter(mask_to_parts(placeable.get(0, 0))))]
+        while stack:
+            state, parts = stack[-1]
+            part = next(parts, None)
+            if part is None:
+                stack.pop()
+                if path:
+                    path.pop()
+                continue
+            child = state | 1 << part
+            off = child != full and not completable[child]  # no complete order goes on
+            if child in expanded:
+                if off:
+                    yield (*path, part, *lowest_to_a_dead_end(child))
+                continue
+            expanded.add(child)
+            if placeable[child]:
+                path.append(part)
+                stack.append((child, iter(mask_to_parts(placeable[child]))))
+            elif off:
+                yield (*path, part)
 
 
 def _children(

@@ -29,6 +29,7 @@ from torch_geometric.utils import scatter
 
 from grace.domain.sample import LabelledAssembly
 from grace.evaluation.step_states import onpath_states
+from grace.model.checkpoints import KeptModel
 from grace.model.grace_pyg import GraceNet
 from grace.model.impls import PygImpl
 from grace.model.module import GraceModule
@@ -109,13 +110,14 @@ class ActivationProbe:
 
 
 def activation_scale(
-    module: GraceModule,
+    module: GraceModule | KeptModel,
     samples: Sequence[LabelledAssembly],
     states_per_assembly: int,
     seed: int = 0,
 ) -> dict[str, dict[str, float]]:
     """The terms of the module docstring over up to `states_per_assembly` states on the true
-    orders of each of `samples` (a seeded choice), on the reference path."""
+    orders of each of `samples` (a seeded choice), on the reference path (a loaded `module`'s
+    network must be built on PyG's layers: grace/model/checkpoints.py)."""
     rng = np.random.default_rng(seed)
     scorer = make_scorer(module, PygImpl())
     with ActivationProbe(module.net) as probe:

@@ -96,7 +96,7 @@ def evaluate_assembly(
     dead_states, dead_masks = dead_end_steps(truth)
     table, extra = _step_table(scorer, sample, scored, np.concatenate([on_states, off_states]))
     bounds = completion_bounds(scored, threshold)
-    best = top_k(table_scores(scored), n, k_max, threshold, bounds, tie_order=tie_order)
+    best, _ = top_k(table_scores(scored), n, k_max, threshold, bounds, tie_order=tie_order)
     valid = label_table(truth)
     return AssemblyEval(
         size=n,

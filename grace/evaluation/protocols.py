@@ -119,9 +119,15 @@ def make_folds(
 def check_split(folds: int, val_fraction: float) -> None:
     """Raise a UserError unless `folds` and `val_fraction` make a cross-validation."""
     if folds < 2:
-        raise UserError(f"protocol.folds={folds}: cross-validation needs at least 2 folds")
+        raise UserError(
+            f"protocol.folds={folds}: cross-validation needs at least 2 folds; "
+            "fix: protocol.folds=2"
+        )
     if not 0.0 <= val_fraction < 1.0:
-        raise UserError(f"protocol.val_fraction={val_fraction}: use a fraction in [0, 1)")
+        raise UserError(
+            f"protocol.val_fraction={val_fraction} is outside [0, 1); fix: protocol.val_fraction=0"
+            " (the share of training assemblies kept for validation)"
+        )
 
 
 def check_fold_sizes(
@@ -210,7 +216,7 @@ def split_assemblies(
     """(train, val, test) split per size, seeded; sizes with ≥ 3 assemblies get a test share."""
     for name, f in (("test_fraction", test_fraction), ("val_fraction", val_fraction)):
         if not 0.0 <= f < 1.0:
-            raise UserError(f"task.{name}={f}: use a fraction in [0, 1)")
+            raise UserError(f"task.{name}={f} is outside [0, 1); fix: task.{name}=0.15")
     rng = np.random.default_rng(seed)
     train, val, test = [], [], []
     for size in sorted({s.size for s in samples}):

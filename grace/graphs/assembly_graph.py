@@ -16,14 +16,17 @@ per-state heterogeneous PyG graph the reference network consumes:
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import torch
-from torch_geometric.data import HeteroData
 
 from grace.domain.assembly import Assembly, Surface
 from grace.graphs.encoding import GraphEncoding, node_ids
 from grace.graphs.pair_geometry import PART_TYPE_INDEX, pair_geometry
+
+if TYPE_CHECKING:
+    from torch_geometric.data import HeteroData
 
 SURFACE_EDGE = ("surface", "near", "surface")
 PART_EDGE = ("surface", "of", "part")
@@ -118,6 +121,8 @@ def state_flags(
 
 def state_graph(tensors: AssemblyTensors, state: int) -> HeteroData:
     """The Assembly Graph of `tensors` in `state`, as heterogeneous PyG data."""
+    from torch_geometric.data import HeteroData  # the reference path only: planning never loads PyG
+
     n, s = tensors.n_parts, tensors.n_surfaces
     data = HeteroData()
     flags = state_flags(np.array([state]), n, tensors.part_static.dtype)[0]

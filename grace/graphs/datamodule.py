@@ -32,14 +32,13 @@ assemblies (large ones split into chunks), so that the fast path computes each s
 once per batch. `mixing="state"` draws states independently, as the reference's shuffled
 per-state data set does; batches then span many assemblies (states of one assembly still share
 its embedding within a batch). The collate function, given by the network's implementation
-(`model.impl`), builds what that path consumes: per-state PyG graphs (:func:`collate_graphs`) or
-padded per-assembly tensors (:func:`collate_dense`).
+(`model.impl`), builds what that path consumes (grace/graphs/batches.py): per-state PyG graphs
+or padded per-assembly tensors.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Mapping, Sequence
-from dataclasses import dataclass
+from collections.abc import Iterator, Mapping, Sequence
 from enum import StrEnum
 from functools import partial
 from typing import Any
@@ -48,14 +47,13 @@ import lightning.pytorch as pl
 import numpy as np
 import torch
 from torch.utils.data import DataLoader, Sampler
-from torch_geometric.data import Batch
 
 from grace.domain.assembly import full_mask
 from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
 from grace.errors import UserError
-from grace.graphs.assembly_graph import AssemblyTensors, encode_assembly, state_flags, state_graph
-from grace.graphs.dense import DenseAssemblies
+from grace.graphs.assembly_graph import AssemblyTensors, encode_assembly, state_flags
+from grace.graphs.batches import Collate, StateBatch, collate_dense
 from grace.graphs.encoding import GraphEncoding
 
 
@@ -126,67 +124,8 @@ def training_states(
     return chosen, state_masks(sample.truth, chosen)[0]
 
 
-@dataclass
-class StateBatch:
-    """T states of A assemblies; `inputs` is a PyG Batch or DenseAssemblies, per path."""
-
-    inputs: object
-    state_assembly: torch.Tensor  # (T,) index into the batch's assemblies
-    flags: torch.Tensor  # (T, N) assembled flags, 0 on padding
-    labels: torch.Tensor  # (T, N) next-step targets in [0, 1] (1 = valid), 0 on padding
-    mask: torch.Tensor  # (T, N) bool: real part nodes
-    weights: torch.Tensor | None = None  # (T,) per-state loss weights; None = all 1
-    placeable: torch.Tensor | None = None  # (T, N) 1 where placing the part is feasible
-
-    @property
-    def n_states(self) -> int:
-        return self.flags.shape[0]
-
-
 Item = tuple[AssemblyTensors, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 """One chunk: (tensors, states, label masks, loss weights, feasible dead-end masks)."""
-
-Collate = Callable[
-    [Sequence[AssemblyTensors], Sequence[np.ndarray], Sequence[np.ndarray]], StateBatch
-]
-"""(per-assembly tensors, their state bitmasks, their label bitmasks) → one batch."""
-
-
-def _state_batch(
-    inputs: object,
-    tensors: Sequence[AssemblyTensors],
-    states: Sequence[np.ndarray],
-    labels: Sequence[np.ndarray],
-) -> StateBatch:
-    n = max(t.n_parts for t in tensors)
-    state_assembly = torch.cat(
-        [torch.full((len(s),), i, dtype=torch.long) for i, s in enumerate(states)]
-    )
-    sizes = torch.tensor([t.n_parts for t in tensors])[state_assembly]
-    mask = torch.arange(n).unsqueeze(0) < sizes.unsqueeze(1)
-    flags = state_flags(np.concatenate(states), n) * mask
-    y = state_flags(np.concatenate(labels), n) * mask
-    return StateBatch(inputs, state_assembly, flags, y, mask)
-
-
-def collate_dense(
-    tensors: Sequence[AssemblyTensors],
-    states: Sequence[np.ndarray],
-    labels: Sequence[np.ndarray],
-) -> StateBatch:
-    """One batch whose inputs are the assemblies' padded tensors (the fast path)."""
-    return _state_batch(DenseAssemblies.stack(list(tensors)), tensors, states, labels)
-
-
-def collate_graphs(
-    tensors: Sequence[AssemblyTensors],
-    states: Sequence[np.ndarray],
-    labels: Sequence[np.ndarray],
-) -> StateBatch:
-    """One batch whose inputs are the per-state PyG graphs (the reference path)."""
-    pairs = zip(tensors, states, strict=True)
-    graphs = [state_graph(t, int(s)) for t, group in pairs for s in group]
-    return _state_batch(Batch.from_data_list(graphs), tensors, states, labels)
 
 
 class AssemblyBatchSampler(Sampler[list[int]]):

@@ -1,9 +1,13 @@
 """Checkpoints this project writes, and the models rebuilt from them (task=plan).
 
-A training run keeps its resolved config (`config.yaml`, KEPT_CONFIG) in its folder beside
-`checkpoints/` (grace/cli/fit.py), so a model is rebuilt from that config and the checkpoint's
-weights must fit it exactly: a checkpoint made for another config stops with one line naming
-both files.
+A training run keeps its resolved config in its folder beside `checkpoints/`
+(grace/model/kept.py), so a model is rebuilt from that config and the checkpoint's weights must
+fit it exactly: a checkpoint made for another config stops with one line naming both files.
+
+A model rebuilt to plan is a :class:`KeptModel`, not the LightningModule it was trained as: what
+scoring reads of it (network, graph encoding, implementation, seed), without the training
+objective. So planning loads neither Lightning nor, on the fast path, PyG: both take seconds to
+import, longer than planning an assembly.
 """
 
 from __future__ import annotations
@@ -12,18 +16,13 @@ from pathlib import Path
 
 import torch
 from hydra.utils import instantiate
-from omegaconf import DictConfig, OmegaConf
+from omegaconf import DictConfig
 
 from grace.errors import UserError
-from grace.model.grace_pyg import Score
-from grace.model.module import GraceModule
-
-KEPT_CONFIG = "config.yaml"
-"""The resolved config of a training run, kept in its folder beside `checkpoints/` so that the
-model can be rebuilt later (task=plan)."""
-
-CHECKPOINT = Path("checkpoints") / "best.ckpt"
-"""The best checkpoint of a training run, under its folder."""
+from grace.graphs.encoding import GraphEncoding
+from grace.model.grace_pyg import GraceNet, Layers, Score
+from grace.model.impls import NetImpl
+from grace.model.kept import kept_config
 
 
 def checkpoint_weights(path: str | Path) -> dict:
@@ -32,30 +31,33 @@ def checkpoint_weights(path: str | Path) -> dict:
     return torch.load(path, map_location="cpu", weights_only=False)["state_dict"]
 
 
-def find_checkpoint(path: str | Path, fold: int = 0) -> Path:
-    """The checkpoint `path` names: a .ckpt file, a train run folder or an experiment run folder
-    (its `fold_<fold>`)."""
-    path = Path(path)
-    candidates = [path] if path.suffix == ".ckpt" else [path / CHECKPOINT]
-    candidates.append(path / f"fold_{fold}" / CHECKPOINT)
-    found = next((c for c in candidates if c.is_file()), None)
-    if found is None:
-        raise UserError(
-            f"ckpt={path}: no checkpoint there (looked for {', '.join(map(str, candidates))}); "
-            "fix: pass a .ckpt file or the folder of a train or experiment run"
-        )
-    return found
+class KeptModel(torch.nn.Module):
+    """A trained GRACE network as scoring uses it: what it reads of a GraceModule (`net`, the
+    graph encoding `enc`, the implementation `impl`, the `seed` of randomised encodings)."""
+
+    def __init__(
+        self, net: GraceNet, graph: GraphEncoding, impl: NetImpl, seed: int, name: str
+    ) -> None:
+        super().__init__()
+        self.net, self.enc, self.impl, self.seed, self.name = net, graph, impl, seed, name
+
+    @property
+    def device(self) -> torch.device:
+        return next(self.net.parameters()).device
+
+    @property
+    def dtype(self) -> torch.dtype:
+        """The weights' dtype, as LightningModule.dtype gives it, so scoring reads either."""
+        return next(self.net.parameters()).dtype
 
 
-def load_model(ckpt: Path) -> tuple[GraceModule, DictConfig]:
-    """The module rebuilt from the config kept beside `ckpt`, with the checkpoint's weights."""
-    kept = ckpt.parent.parent / KEPT_CONFIG
-    if not kept.is_file():
-        raise UserError(
-            f"ckpt={ckpt}: no {KEPT_CONFIG} beside it ({kept}); fix: use a checkpoint of a run "
-            f"that kept its config (every train and experiment run writes one)"
-        )
-    cfg = OmegaConf.load(kept)
+def load_model(ckpt: Path, layers: Layers | None = None) -> tuple[KeptModel, DictConfig]:
+    """The model rebuilt from the config kept beside `ckpt`, with the checkpoint's weights.
+
+    Its network is built from `layers`, by default those its implementation runs on
+    (`impl.loaded_layers()`: PyG's for the reference path, plain parameter holders for the fast
+    path); pass grace_pyg.pyg_layers() to run PyG's modules on it as well."""
+    kept, cfg = kept_config(ckpt)
     if "score" not in cfg.model.net:  # kept before the score was a key: those runs planned
         cfg.model.net.score = Score.geometric.value  # with the geometric mean
     try:
@@ -65,9 +67,13 @@ def load_model(ckpt: Path) -> tuple[GraceModule, DictConfig]:
             f"ckpt={ckpt}: not a readable Lightning checkpoint ({type(e).__name__}: {e}); "
             "fix: pass the best.ckpt a train or experiment run wrote"
         ) from None
-    module = instantiate(cfg.model)
+    impl = instantiate(cfg.model.impl)
+    with torch.device("meta"):  # no initialisation: the checkpoint's weights replace it
+        net = GraceNet(instantiate(cfg.model.net), layers or impl.loaded_layers())
+    graph = instantiate(cfg.model.graph)
+    module = KeptModel(net, graph, impl, int(cfg.model.seed), str(cfg.model.name))
     try:
-        module.load_state_dict(state, strict=True)
+        module.load_state_dict(state, strict=True, assign=True)
     except RuntimeError as e:
         first = str(e).splitlines()[1].strip() if len(str(e).splitlines()) > 1 else str(e)
         raise UserError(

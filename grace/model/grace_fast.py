@@ -27,10 +27,74 @@ import torch.nn.functional as F
 
 from grace.graphs.assembly_graph import state_flags
 from grace.graphs.dense import DenseAssemblies
-from grace.model.grace_pyg import GraceNet, Pool
+from grace.model.grace_pyg import GraceNet, Layers, Pool
 
 _EPS = 1e-5  # torch_geometric InstanceNorm default
 _MASKED = -1e30
+
+
+class GATv2Weights(torch.nn.Module):
+    """The parameters of PyG's one-head GATv2Conv under its names (what the fast path reads),
+    without PyG. Self loops and their fill value shape PyG's message passing only."""
+
+    def __init__(
+        self,
+        in_channels: int | tuple[int, int],
+        out_channels: int,
+        negative_slope: float = 0.2,
+        edge_dim: int | None = None,
+        add_self_loops: bool = True,
+        fill_value: float = 0.0,
+    ) -> None:
+        super().__init__()
+        src, dst = (in_channels, in_channels) if isinstance(in_channels, int) else in_channels
+        self.negative_slope = negative_slope
+        self.lin_l = torch.nn.Linear(src, out_channels)
+        self.lin_r = torch.nn.Linear(dst, out_channels)
+        self.att = torch.nn.Parameter(torch.empty(1, 1, out_channels))
+        if edge_dim is not None:
+            self.lin_edge = torch.nn.Linear(edge_dim, out_channels, bias=False)
+        self.bias = torch.nn.Parameter(torch.empty(out_channels))
+
+
+class EdgeModules(torch.nn.ModuleDict):
+    """Modules keyed by edge type, named as PyG's HeteroConv names them (`<src___rel___dst>`)."""
+
+    def __init__(self, modules: dict[tuple[str, ...], torch.nn.Module]) -> None:
+        super().__init__({self.name(edge): module for edge, module in modules.items()})
+
+    @staticmethod
+    def name(edge: tuple[str, ...]) -> str:
+        return f"<{'___'.join(edge)}>"
+
+    def __getitem__(self, edge: tuple[str, ...]) -> torch.nn.Module:
+        return super().__getitem__(self.name(edge))
+
+
+class HeteroWeights(torch.nn.Module):
+    """The parameters of PyG's HeteroConv (its convs), without PyG; `aggr` shapes PyG's message
+    passing only."""
+
+    def __init__(self, convs: dict[tuple[str, ...], torch.nn.Module], aggr: str = "sum") -> None:
+        super().__init__()
+        self.convs = EdgeModules(convs)
+
+
+class InstanceNormWeights(torch.nn.Module):
+    """The parameters of PyG's affine InstanceNorm without running statistics (GraceNet's
+    norms), without PyG."""
+
+    def __init__(self, channels: int, affine: bool, track_running_stats: bool) -> None:
+        super().__init__()
+        if not affine or track_running_stats:
+            raise ValueError("holds an affine norm without running statistics only")
+        self.weight = torch.nn.Parameter(torch.empty(channels))
+        self.bias = torch.nn.Parameter(torch.empty(channels))
+
+
+WEIGHT_LAYERS = Layers(GATv2Weights, HeteroWeights, InstanceNormWeights)
+"""GraceNet's layers as plain parameter holders: a network to load weights into and run on the
+fast path, which never loads PyG (grace_pyg.GraceNet)."""
 
 
 NormWeights = tuple[torch.Tensor, torch.Tensor] | None

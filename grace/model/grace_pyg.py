@@ -6,7 +6,9 @@ Block = GATv2 attention conv → InstanceNorm (affine, no running stats) → tan
 Surface blocks: GATv2 on the complete surface graph (edge_dim 1, self loops filled with 0).
 Part block: GATv2 surface→part without self loops, in a HeteroConv with mean aggregation.
 Head: one linear layer per part node; `forward` returns logits, sigmoid gives the scores.
-The fast path (grace_fast.py) reuses exactly these modules' parameters.
+The fast path (grace_fast.py) reuses exactly these modules' parameters; it reads nothing else of
+them, so a network that is only loaded and run on it is built from plain holders of the same
+parameters (grace_fast.WEIGHT_LAYERS) and never loads PyG, whose import takes seconds.
 """
 
 from __future__ import annotations
@@ -15,16 +17,18 @@ import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from enum import StrEnum
+from typing import TYPE_CHECKING, NamedTuple
 
 import torch
 import torch.nn.functional as F
 from torch import nn
-from torch_geometric.data import Batch, HeteroData
-from torch_geometric.nn import GATv2Conv, HeteroConv, InstanceNorm
 
 from grace.errors import UserError
 from grace.graphs.assembly_graph import PAIR_EDGE, PART_EDGE, SURFACE_EDGE
 from grace.graphs.pair_geometry import PAIR_GEOMETRY_FEATURES
+
+if TYPE_CHECKING:
+    from torch_geometric.data import Batch, HeteroData
 
 
 class Score(StrEnum):
@@ -162,17 +166,39 @@ class NetConfig:
         return 1 + self.pe_dim
 
 
-class GraceNet(nn.Module):
-    """The GRACE network; `forward` is the plain PyG per-state path."""
+class Layers(NamedTuple):
+    """The classes GraceNet builds its attention blocks from, called as PyG's: `gat` as
+    GATv2Conv, `hetero` as HeteroConv, `norm` as InstanceNorm."""
 
-    def __init__(self, cfg: NetConfig) -> None:
+    gat: Callable[..., nn.Module]
+    hetero: Callable[..., nn.Module]
+    norm: Callable[..., nn.Module]
+
+
+def pyg_layers() -> Layers:
+    """PyG's layers (imported on first use: PyG takes seconds to load)."""
+    from torch_geometric.nn import GATv2Conv, HeteroConv, InstanceNorm
+
+    return Layers(GATv2Conv, HeteroConv, InstanceNorm)
+
+
+class GraceNet(nn.Module):
+    """The GRACE network; `forward` is the plain PyG per-state path.
+
+    Built from PyG's `layers` by default, initialised as PyG initialises them; with
+    grace_fast.WEIGHT_LAYERS it holds the same parameters under the same names, uninitialised,
+    for weights to be loaded and run on the fast path (`forward` needs PyG's layers).
+    """
+
+    def __init__(self, cfg: NetConfig, layers: Layers | None = None) -> None:
         super().__init__()
         self.cfg = cfg
         h = cfg.hidden
+        layers = layers or pyg_layers()
         self.surface_convs = nn.ModuleList(
-            HeteroConv(
+            layers.hetero(
                 {
-                    SURFACE_EDGE: GATv2Conv(
+                    SURFACE_EDGE: layers.gat(
                         cfg.block_in(i),
                         h,
                         negative_slope=cfg.negative_slope,
@@ -186,21 +212,21 @@ class GraceNet(nn.Module):
             for i in range(cfg.surface_blocks)
         )
         self.surface_norms = nn.ModuleList(
-            InstanceNorm(h, affine=True, track_running_stats=False)
+            layers.norm(h, affine=True, track_running_stats=False)
             for _ in range(cfg.surface_blocks)
         )
         with warnings.catch_warnings():
             # Surfaces are no destination of the part conv by design: they are read, not updated.
             warnings.filterwarnings("ignore", message="There exist node types")
-            self.part_conv = HeteroConv(
+            self.part_conv = layers.hetero(
                 {
-                    PART_EDGE: GATv2Conv(
+                    PART_EDGE: layers.gat(
                         (h, cfg.part_in), h, negative_slope=cfg.negative_slope, add_self_loops=False
                     )
                 },
                 aggr="mean",
             )
-        self.part_norm = InstanceNorm(h, affine=True, track_running_stats=False)
+        self.part_norm = layers.norm(h, affine=True, track_running_stats=False)
         if cfg.pair_readout:
             p, w = cfg.pair_readout, cfg.static_width
             self.pair_dst = nn.Linear(w, p)
@@ -218,11 +244,11 @@ class GraceNet(nn.Module):
             )
         self.head = nn.Linear(h, 2 if cfg.placeable_head else 1)
 
-    def surface_gat(self, i: int) -> GATv2Conv:
+    def surface_gat(self, i: int) -> nn.Module:
         return self.surface_convs[i].convs[SURFACE_EDGE]
 
     @property
-    def part_gat(self) -> GATv2Conv:
+    def part_gat(self) -> nn.Module:
         return self.part_conv.convs[PART_EDGE]
 
     def forward(self, data: HeteroData | Batch) -> torch.Tensor:

@@ -21,14 +21,13 @@ from typing import NamedTuple
 
 import numpy as np
 import torch
-from lightning.fabric.utilities.apply_func import move_data_to_device
-from torch_geometric.data import Batch
 
 from grace.domain.assembly import Assembly
 from grace.graphs.assembly_graph import AssemblyTensors, state_graph
-from grace.graphs.datamodule import StateBatch, collate_dense, collate_graphs
+from grace.graphs.batches import StateBatch, collate_dense, collate_graphs
 from grace.graphs.dense import DenseAssemblies
 from grace.model.grace_fast import (
+    WEIGHT_LAYERS,
     SharedWork,
     fast_logits,
     first_planning_scores,
@@ -37,7 +36,7 @@ from grace.model.grace_fast import (
     shared_work,
     state_features,
 )
-from grace.model.grace_pyg import GraceNet
+from grace.model.grace_pyg import GraceNet, Layers, pyg_layers
 
 
 class PlanningSteps(NamedTuple):
@@ -64,6 +63,9 @@ class PreparedAssembly:
         self.device = torch.device(device)
         self.dense = DenseAssemblies.stack([tensors])
         if self.dense.surface_x.device != self.device:  # the walk costs a cold query 30 µs
+            # Imported here: Lightning takes seconds to load, and planning on CPU never moves.
+            from lightning.fabric.utilities.apply_func import move_data_to_device
+
             self.dense = move_data_to_device(self.dense, self.device)
         self._shared: SharedWork | None = None
 
@@ -97,6 +99,12 @@ class FastImpl:
 
     collate = staticmethod(collate_dense)
 
+    @staticmethod
+    def loaded_layers() -> Layers:
+        """The layers of a network loaded to run on this path: holders of its parameters, which
+        are all the fast path reads (grace_fast.WEIGHT_LAYERS, no PyG)."""
+        return WEIGHT_LAYERS
+
     def logits(self, net: GraceNet, batch: StateBatch) -> torch.Tensor:
         return fast_logits(net, batch.inputs, batch.state_assembly, batch.flags)
 
@@ -113,6 +121,8 @@ class PygImpl:
 
     collate = staticmethod(collate_graphs)
 
+    loaded_layers = staticmethod(pyg_layers)  # a loaded network runs PyG's modules here
+
     def logits(self, net: GraceNet, batch: StateBatch) -> torch.Tensor:
         flat = net(batch.inputs)
         out = flat.new_zeros(batch.mask.shape + flat.shape[1:])
@@ -122,6 +132,8 @@ class PygImpl:
     def assembly_scores(
         self, net: GraceNet, prepared: PreparedAssembly, states: np.ndarray
     ) -> torch.Tensor:
+        from torch_geometric.data import Batch  # the reference path only: planning never loads PyG
+
         batch = Batch.from_data_list([state_graph(prepared.tensors, int(s)) for s in states])
         flat = net(batch.to(prepared.device))
         return net.scores(flat.view(len(states), prepared.assembly.n_parts, *flat.shape[1:]))

@@ -18,7 +18,7 @@ from lightning.pytorch.profilers import PassThroughProfiler
 from torchmetrics.functional.classification import binary_precision_recall_curve
 from torchmetrics.utilities.compute import auc
 
-from grace.graphs.datamodule import StateBatch
+from grace.graphs.batches import StateBatch
 from grace.graphs.encoding import GraphEncoding
 from grace.model.grace_pyg import GraceNet, NetConfig
 from grace.model.impls import NetImpl

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import zlib
 from collections import OrderedDict
+from typing import TYPE_CHECKING
 
 import numpy as np
 import torch
@@ -19,7 +20,12 @@ import torch
 from grace.domain.assembly import Assembly
 from grace.graphs.assembly_graph import AssemblyTensors, encode_assembly
 from grace.model.impls import FastImpl, NetImpl, PreparedAssembly
-from grace.model.module import GraceModule
+
+if TYPE_CHECKING:  # scoring reads the same of both; importing them would load Lightning
+    from grace.model.checkpoints import KeptModel
+    from grace.model.module import GraceModule
+
+    Model = GraceModule | KeptModel
 
 
 def _fingerprint(assembly: Assembly) -> int:
@@ -28,7 +34,7 @@ def _fingerprint(assembly: Assembly) -> int:
     return zlib.crc32(np.ascontiguousarray(assembly.relations).tobytes(), zlib.crc32(data))
 
 
-def evaluation_tensors(module: GraceModule, assembly: Assembly) -> AssemblyTensors:
+def evaluation_tensors(module: Model, assembly: Assembly) -> AssemblyTensors:
     """The evaluation-time encoding of `assembly` (deterministic also for randomised variants)."""
     rng = None
     if module.enc.randomised:
@@ -39,7 +45,7 @@ def evaluation_tensors(module: GraceModule, assembly: Assembly) -> AssemblyTenso
 class Scorer:
     """Callable `scorer(assembly, states) -> scores` with a small per-assembly cache."""
 
-    def __init__(self, module: GraceModule, impl: NetImpl | None = None, cache_size: int = 64):
+    def __init__(self, module: Model, impl: NetImpl | None = None, cache_size: int = 64):
         self.module = module.eval()
         self.impl = impl or module.impl
         self.cache_size = cache_size
@@ -74,12 +80,12 @@ class Scorer:
         return scores.cpu().numpy().astype(np.float64)
 
 
-def make_scorer(module: GraceModule, impl: NetImpl | None = None) -> Scorer:
+def make_scorer(module: Model, impl: NetImpl | None = None) -> Scorer:
     """Scorer over `module` on its own implementation, or on `impl` if given."""
     return Scorer(module, impl)
 
 
-def part_embeddings(module: GraceModule, assembly: Assembly, state: int = 0) -> np.ndarray:
+def part_embeddings(module: Model, assembly: Assembly, state: int = 0) -> np.ndarray:
     """Part node features (n_parts, hidden) after the part block, for mean-pooled classifiers."""
     feats = Scorer(module, FastImpl(), 1).part_features(assembly, np.array([state]))
     return feats[0].cpu().numpy().astype(np.float64)

@@ -9,6 +9,8 @@ lazily and once each, so for N ≥ 9 only the states near the best sequences are
 from __future__ import annotations
 
 import heapq
+import math
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -76,15 +78,18 @@ def top_k(
     threshold: float,
     bounds: np.ndarray | None = None,
     max_expansions: int | None = None,
+    max_seconds: float | None = None,
     tie_order: np.ndarray | None = None,
-) -> list[Ranked]:
-    """The k most probable complete sequences with every step score ≥ `threshold`.
+) -> tuple[list[Ranked], bool]:
+    """The k most probable complete sequences with every step score ≥ `threshold`, and whether
+    a budget stopped the search before it found k (or proved there are fewer).
 
     `bounds` (completion_bounds of the same scores and threshold) turns the search into A*:
     the same sequences, each found after O(N²) expansions; ties of equal probability may then
     come out in another order than the lexicographic one. Without bounds, near-uniform scores
-    can make the search expand up to N! prefixes: `max_expansions` stops it there, with the
-    sequences found so far (maybe none).
+    can make the search expand up to N! prefixes: `max_expansions` and `max_seconds` (each
+    expansion scores a state, a few ms at 20 parts) stop it there, with the sequences found so
+    far (maybe none).
 
     Ties of equal priority go to the prefix first in lexicographic order of the parts' ranks
     `tie_order[part]` (default: the part numbers). A policy of equal scores (the `constant`
@@ -100,14 +105,17 @@ def top_k(
     ]
     out: list[Ranked] = []
     expansions = 0
+    deadline = math.inf if max_seconds is None else time.perf_counter() + max_seconds
     while heap and len(out) < k:
         _, ranks, prefix, state, steps, prob = heapq.heappop(heap)
         if state == full:
             out.append(Ranked(prefix, prob, steps))
             continue
         expansions += 1
-        if max_expansions is not None and expansions > max_expansions:
-            break
+        if (max_expansions is not None and expansions > max_expansions) or (
+            time.perf_counter() > deadline
+        ):
+            return out, True
         row = scores(state)
         for part in range(n_parts):
             if state >> part & 1 or not row[part] >= threshold:
@@ -129,7 +137,7 @@ def top_k(
                     prob * step,
                 ),
             )
-    return out
+    return out, False
 
 
 @dataclass(frozen=True)
@@ -140,6 +148,7 @@ class TopKListing:
     k: int = 10
     threshold: float = 0.0
     max_expansions: int | None = None
+    max_seconds: float | None = None
 
     verify = False  # the task layer checks the listed sequences afterwards
 
@@ -155,13 +164,15 @@ class Ranking:
 
     `feasibility` is the bottleneck score (the largest λ at which Algorithm 1 still finds a
     complete sequence, docs/metrics.md), None above `FULL_TABLE_MAX_PARTS` parts; `scores`
-    gives any state's part scores (from the table, or scored on demand).
+    gives any state's part scores (from the table, or scored on demand); `stopped`: a budget
+    ended the search before it had `k` sequences or had shown that there are fewer.
     """
 
     ranked: list[Ranked]
     feasibility: float | None
     scores: StateScores
     passes: int
+    stopped: bool = False
 
 
 def rank_sequences(
@@ -170,17 +181,20 @@ def rank_sequences(
     k: int,
     threshold: float = 0.0,
     max_expansions: int | None = None,
+    max_seconds: float | None = None,
 ) -> Ranking:
     """The `k` most probable complete sequences with every step ≥ `threshold`, best first.
 
     Above `FULL_TABLE_MAX_PARTS` parts the best-first search has no completion bounds:
-    `max_expansions` caps it (see `top_k`)."""
+    `max_expansions` and `max_seconds` cap it (see `top_k`)."""
     n = assembly.n_parts
     if n <= FULL_TABLE_MAX_PARTS:
         scored = score_states(scorer, assembly, threshold=0.0)
         scores = table_scores(scored)
-        ranked = top_k(scores, n, k, threshold, completion_bounds(scored, threshold))
+        ranked, _ = top_k(scores, n, k, threshold, completion_bounds(scored, threshold))
         return Ranking(ranked, bottleneck(scored), scores, scored.passes)
     lazy = lazy_scores(scorer, assembly)
-    ranked = top_k(lazy, n, k, threshold, max_expansions=max_expansions)
-    return Ranking(ranked, None, lazy, len(lazy.cache))  # type: ignore[attr-defined]
+    ranked, stopped = top_k(
+        lazy, n, k, threshold, max_expansions=max_expansions, max_seconds=max_seconds
+    )
+    return Ranking(ranked, None, lazy, len(lazy.cache), stopped)  # type: ignore[attr-defined]

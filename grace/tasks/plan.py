@@ -6,7 +6,9 @@ best-first top-k, grace/planning/topk.py), each with its probability and step sc
 assembly's feasibility score (the bottleneck: the largest λ at which Algorithm 1 still finds a
 sequence, docs/metrics.md), and every listed sequence checked step by step in the simulator the
 model was trained with (verdict; at the first failing step the deciding rule and what blocks
-it). Writes plan.json and plan.rrd into the run folder.
+it). Writes plan.json into the run folder and prints the answer; with `task.recording=true`,
+plan.rrd after it (rerun is imported only then). Planning imports neither Lightning nor PyG
+(grace/model/checkpoints.py).
 
 The model is rebuilt from the `config.yaml` kept beside its checkpoint (<fold>/config.yaml, see
 grace/model/checkpoints.py), and the checkpoint's weights must fit it exactly: a checkpoint made for
@@ -19,7 +21,7 @@ import logging
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 from hydra.utils import instantiate
 from omegaconf import MISSING, DictConfig
@@ -28,13 +30,12 @@ from grace.cli.plan_search import order_entry, plan_verified
 from grace.cli.runner import TaskSettings
 from grace.data.atomic import write_json_atomic
 from grace.data.raw_format import read_assembly
-from grace.errors import UserError
-from grace.model.checkpoints import find_checkpoint, load_model
+from grace.model.checkpoints import load_model
+from grace.model.kept import find_checkpoint
 from grace.model.scoring import make_scorer
-from grace.planning.topk import FULL_TABLE_MAX_PARTS
-from grace.simulation.check import blockers, describe
-from grace.visualisation.recording import write_recording
-from grace.visualisation.records import SequenceRecord, sequence_record
+from grace.planning.topk import FULL_TABLE_MAX_PARTS, rank_sequences
+from grace.simulation.check import OrderChecker, blockers, describe
+from grace.visualisation.records import SequenceRecord, ranked_record, with_cell
 
 log = logging.getLogger(__name__)
 
@@ -43,9 +44,11 @@ log = logging.getLogger(__name__)
 class PlanSettings(TaskSettings):
     """Schema of `task=plan` (values in grace/conf/task/plan.yaml)."""
 
+    reads: ClassVar[tuple[str, ...] | None] = ("planner",)
     ckpt: str | None = MISSING  # a run folder (train or experiment) or a .ckpt file
     assembly: str | None = MISSING  # a raw assembly folder or an assembly.spec file
     fold: int = 0  # which fold's model of an experiment run folder
+    recording: bool = False  # plan.rrd too, written after plan.json and the printed answer
 
 
 def plan_json(record: SequenceRecord, sources: dict[str, Any]) -> dict[str, Any]:
@@ -80,9 +83,6 @@ def run(cfg: DictConfig) -> float | None:
     """Plan `task.assembly` with the model of `task.ckpt`; return its feasibility score."""
     out_dir = Path(cfg.paths.output_dir)
     begin = time.perf_counter()
-    for key, what in (("ckpt", "<run folder or .ckpt>"), ("assembly", "<raw folder or .spec>")):
-        if not cfg.task[key]:
-            raise UserError(f"task=plan needs {key}=; fix: add {key}={what}")
     ckpt = find_checkpoint(cfg.task.ckpt, int(cfg.task.fold))
     assembly, truth = read_assembly(cfg.task.assembly)
     module, kept = load_model(ckpt)
@@ -91,26 +91,34 @@ def run(cfg: DictConfig) -> float | None:
     start = time.perf_counter()
     load_seconds = start - begin
     sources = {"checkpoint": str(ckpt), "assembly": str(cfg.task.assembly)}
+    recording = bool(cfg.task.recording)
     if planner.verify:  # the default: grace/cli/plan_search.py
         sources["load_seconds"] = load_seconds
-        plan_verified(planner, assembly, truth, make_scorer(module), simulator, sources, out_dir)
+        scorer = make_scorer(module)
+        plan_verified(planner, assembly, truth, scorer, simulator, sources, out_dir, recording)
         return None
+    budget = f"planner.max_expansions={planner.max_expansions}, planner.max_seconds="
+    budget += f"{planner.max_seconds}"
     if assembly.n_parts > FULL_TABLE_MAX_PARTS:
         log.warning(
             "%d parts: the top-k listing scores states lazily without completion bounds and "
-            "stops after planner.max_expansions=%s; planner=verified is the bounded planner",
-            assembly.n_parts, planner.max_expansions,
+            "stops at %s; planner=verified is the bounded planner", assembly.n_parts, budget,
         )  # fmt: skip
-    record = sequence_record(
-        "plan", assembly, make_scorer(module), simulator, truth, planner.k, planner.k,
-        planner.threshold, planner.max_expansions,
+    ranking = rank_sequences(
+        make_scorer(module), assembly, planner.k, planner.threshold, planner.max_expansions,
+        planner.max_seconds,
+    )  # fmt: skip
+    checker = OrderChecker(simulator, assembly)
+    record = ranked_record(
+        "plan", ranking.ranked, ranking.scores, checker, truth, planner.k, ranking.feasibility,
+        cell=False,
     )  # fmt: skip
     seconds = time.perf_counter() - start
-    sources["seconds"] = seconds  # scoring, top-k, simulator checks and poses (model loaded)
+    sources["seconds"] = seconds  # scoring, top-k and simulator checks (model loaded)
     sources["load_seconds"] = load_seconds  # checkpoint, config, assembly, simulator
+    sources["stopped_by_budget"] = ranking.stopped
     result = plan_json(record, {**sources, "k": planner.k, "threshold": planner.threshold})
     write_json_atomic(out_dir / "plan.json", result)
-    write_recording([record], out_dir / "plan.rrd", out_dir.name)
     feas = "n/a" if record.feasibility is None else f"{record.feasibility:.4f}"
     print(f"{assembly.name}: {assembly.n_parts} parts, feasibility score {feas}")
     for entry in result["sequences"]:
@@ -122,10 +130,19 @@ def run(cfg: DictConfig) -> float | None:
             verdict = f"fails at step {step + 1} (part {part}): {sim['reason']}"
         order = " ".join(str(p) for p in entry["sequence"])
         print(f"{entry['rank']:3d}. {order}  p={entry['probability']:.4g}  simulator: {verdict}")
-    if not result["sequences"]:
+    if ranking.stopped:
+        print(f"{len(ranking.ranked)} of {planner.k} sequences found within budget ({budget})")
+    elif not result["sequences"]:
         print(f"no complete sequence has every step scoring ≥ {planner.threshold}")
     print(
         f"planned and checked in {seconds:.2f} s (loading {load_seconds:.2f} s); "
-        f"plan.json and plan.rrd in {out_dir}"
+        f"plan.json in {out_dir}",
+        flush=True,
     )
+    if recording:
+        from grace.visualisation.recording import write_recording  # rerun: only to record
+
+        record = with_cell(record, ranking.scores, checker, truth)
+        write_recording([record], out_dir / "plan.rrd", out_dir.name)
+        print(f"plan.rrd in {out_dir}")
     return record.feasibility

@@ -39,7 +39,8 @@ from grace.evaluation.search_bench import (
     summarise,
     summary_line,
 )
-from grace.model.checkpoints import find_checkpoint, load_model
+from grace.model.checkpoints import load_model
+from grace.model.kept import find_checkpoint
 from grace.model.scoring import make_scorer
 from grace.planning.cell_steps import SimulatorSteps
 from grace.planning.search import Outcome
@@ -71,8 +72,6 @@ class SearchBenchSettings(TaskSettings):
 def run(cfg: DictConfig) -> float | None:
     out_dir = Path(cfg.paths.output_dir)
     task = cfg.task
-    if not task.ckpt:
-        raise UserError("task=search_bench needs ckpt=; fix: add ckpt=<run folder or .ckpt>")
     search = instantiate(cfg.planner)
     if not getattr(search, "verify", False):
         raise UserError(

@@ -31,7 +31,9 @@ from grace.errors import UserError
 from grace.evaluation.activation_scale import activation_scale
 from grace.evaluation.size_scores import held_out, step_scores, summarise
 from grace.evaluation.tables import size_diagnosis_table
-from grace.model.checkpoints import find_checkpoint, load_model
+from grace.model.checkpoints import load_model
+from grace.model.grace_pyg import pyg_layers
+from grace.model.kept import find_checkpoint
 from grace.model.scoring import make_scorer
 from grace.visualisation.size_diagnosis import size_diagnosis_figure
 
@@ -68,9 +70,8 @@ def _check_same_data(kept: DictConfig, cfg: DictConfig, counts: dict[int, int]) 
 def run(cfg: DictConfig) -> None:
     """Diagnose the model of `task.fold` of the run `task.ckpt` on its held-out assemblies."""
     settings = cfg.task
-    if settings.ckpt is None:
-        raise UserError("task=size_diagnosis needs ckpt=<experiment run folder>")
-    module, kept = load_model(find_checkpoint(settings.ckpt, settings.fold))
+    # PyG's layers: the activation probe hooks the reference path's modules
+    module, kept = load_model(find_checkpoint(settings.ckpt, settings.fold), pyg_layers())
     if OmegaConf.select(kept, "task.name") != "experiment":
         raise UserError(
             f"ckpt={settings.ckpt}: not a fold of an experiment run; fix: pass the folder of a "

@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import logging
 import math
+import random
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -24,11 +26,12 @@ from typing import Any
 import lightning.pytorch as pl
 import numpy as np
 import optuna
+import sqlalchemy.exc
 from hydra.utils import instantiate
-from lightning.pytorch import seed_everything
 from omegaconf import MISSING, DictConfig, OmegaConf
 from optuna_integration import PyTorchLightningPruningCallback
 
+from grace.cli.determinism import seed_all
 from grace.cli.folds import protocol_folds
 from grace.cli.runner import TaskSettings, task_overrides
 from grace.cli.tune_report import write_report
@@ -101,7 +104,7 @@ def _objective(cfg: DictConfig, params: list[Param], out_dir: Path, prune: bool)
             callbacks: list[pl.Callback] = [kept]
             if prune and position == 0:
                 callbacks.append(PyTorchLightningPruningCallback(trial, monitor=metric))
-            seed_everything(int(trial_cfg.seed) + fold.index, workers=True, verbose=False)
+            seed_all(int(trial_cfg.seed) + fold.index)
             instantiate(trial_cfg.task.fit)(
                 trial_cfg,
                 [data[i] for i in fold.train],
@@ -121,14 +124,31 @@ def storage_url(cfg: DictConfig, out_dir: Path) -> str:
     return cfg.tune.storage or f"sqlite:///{(out_dir / 'study.db').absolute()}"
 
 
+STORAGE_ATTEMPTS = 10
+"""Tries at opening a storage that other processes may be creating at the same moment."""
+
+
+def rdb_storage(url: str) -> optuna.storages.RDBStorage:
+    """The database at `url`, its tables created if missing. Processes started together on a
+    new database each create the tables and stamp their version, and all but one fail (a table
+    or version row that another just made); the tables are there once one has succeeded, so
+    the others try again after a short random wait."""
+    for attempt in range(1, STORAGE_ATTEMPTS):
+        try:
+            return optuna.storages.RDBStorage(url)
+        except sqlalchemy.exc.SQLAlchemyError:
+            time.sleep(random.uniform(0.05, 0.2) * attempt)
+    return optuna.storages.RDBStorage(url)  # the last try raises what fails
+
+
 def open_study(cfg: DictConfig, storage: str) -> optuna.Study:
     """The study `tune.study_name` in `storage`, created or continued, with the configured
     pruner and a sampler seeded by `sampler.seed` plus the number of trials already in the
     study: a continued study draws new points rather than repeating the first process's."""
     tune = cfg.tune
     pruner = instantiate(tune.pruner) if tune.pruner is not None else optuna.pruners.NopPruner()
-    study = optuna.create_study(
-        storage=storage,
+    study = optuna.create_study(  # a study another process just created is loaded
+        storage=rdb_storage(storage),
         study_name=tune.study_name,
         direction=str(tune.direction),
         pruner=pruner,
@@ -150,8 +170,6 @@ def run(cfg: DictConfig) -> float:
     out_dir = Path(cfg.paths.output_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     cfg = trial_config(cfg, {"trainer.enable_progress_bar": False})  # one line per trial instead
-    if cfg.tune.folds is not None and cfg.tune.folds < 1:
-        raise UserError(f"tune.folds={cfg.tune.folds}: use a positive number or null (all)")
     params = parse_space(cfg.tune.space, cfg)
     storage = storage_url(cfg, out_dir)
     study = open_study(cfg, storage)

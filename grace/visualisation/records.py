@@ -2,19 +2,23 @@
 
 A `SequenceRecord` is plain data (it crosses from an experiment's fold processes to the process
 that writes `sequences.rrd`): the policy's best sequences with their simulator checks, the
-ground truth if known, the part scores and the robot cell at each step of the best sequence.
+ground truth if known, the part scores and the robot cell at each step of the best sequence. A
+`SearchRecord` is a verified search (task=plan's plan.json and plan.rrd). Gathering them needs no
+rerun: they are written by grace/visualisation/recording.py and search_recording.py.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from grace.domain.assembly import Assembly
+from grace.domain.assembly import Assembly, mask_to_parts
 from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
+from grace.planning.cell_steps import SimulatorSteps
+from grace.planning.search import SearchResult
 from grace.planning.sequences import Scorer
 from grace.planning.topk import Ranked, StateScores, rank_sequences
 from grace.simulation.check import OrderCheck, OrderChecker, blockers, describe
@@ -130,11 +134,9 @@ def sequence_record(
     truth: GroundTruth | None,
     top_k: int,
     truth_orders: int,
-    threshold: float = 0.0,
-    max_expansions: int | None = None,
 ) -> SequenceRecord:
     """Rank, check and pose one assembly (the best sequence's cell at every step)."""
-    ranking = rank_sequences(scorer, assembly, top_k, threshold, max_expansions)
+    ranking = rank_sequences(scorer, assembly, top_k)
     checker = OrderChecker(simulator, assembly)
     return ranked_record(
         group, ranking.ranked, ranking.scores, checker, truth, truth_orders, ranking.feasibility
@@ -149,24 +151,18 @@ def ranked_record(
     truth: GroundTruth | None,
     truth_orders: int,
     feasibility: float | None = None,
+    cell: bool = True,
 ) -> SequenceRecord:
-    """Check and pose listed sequences of `checker`'s assembly (the first one's cell at every
-    step); `scores(state)` gives the policy's part scores of a state."""
-    assembly, simulator = checker.assembly, checker.simulator
+    """Check listed sequences of `checker`'s assembly and, with `cell`, pose them
+    (:func:`with_cell`); `scores(state)` gives the policy's part scores of a state."""
+    assembly = checker.assembly
     checks = [checker.check(r.sequence) for r in ranked]
     failures = [
         f
         for rank, check in enumerate(checks, 1)
         if (f := first_failure(rank, check, checker, truth)) is not None
     ]
-    steps, placed = [], 0
-    for part in ranked[0].sequence if ranked else ():
-        pose = checker.pose(placed, part)
-        steps.append(
-            StepView(placed, part, np.asarray(scores(placed)), pose, _label(truth, placed))
-        )
-        placed |= 1 << part
-    return SequenceRecord(
+    record = SequenceRecord(
         group=group,
         assembly=assembly,
         ranked=ranked,
@@ -175,15 +171,33 @@ def ranked_record(
         truth_orders=list(truth.orders(limit=truth_orders)) if truth is not None else [],
         n_truth_orders=truth.n_orders() if truth is not None else None,
         failures=failures,
+        steps=[],
+    )
+    return with_cell(record, scores, checker, truth) if cell else record
+
+
+def with_cell(
+    record: SequenceRecord, scores: StateScores, checker: OrderChecker, truth: GroundTruth | None
+) -> SequenceRecord:
+    """`record` with what a recording draws and nothing else reads: the first sequence's cell
+    and part scores at every step, the clamps and the arms (the cell poses cost about as much
+    as the checks)."""
+    simulator = checker.simulator
+    steps, placed = [], 0
+    for part in record.ranked[0].sequence if record.ranked else ():
+        pose = checker.pose(placed, part)
+        steps.append(
+            StepView(placed, part, np.asarray(scores(placed)), pose, _label(truth, placed))
+        )
+        placed |= 1 << part
+    arm = simulator.cell.config.arm
+    return replace(
+        record,
         steps=steps,
-        clamps=_clamps(simulator, assembly),
+        clamps=_clamps(simulator, record.assembly),
         arm_links=tuple(
             (float(length), float(radius))
-            for length, radius in zip(
-                simulator.cell.config.arm.link_lengths,
-                simulator.cell.config.arm.link_radii,
-                strict=True,
-            )
+            for length, radius in zip(arm.link_lengths, arm.link_radii, strict=True)
         ),
     )
 
@@ -214,3 +228,81 @@ def fold_records(
         for size in sorted(chosen)
         for sample in chosen[size]
     ]
+
+
+@dataclass(frozen=True)
+class SearchStep:
+    """One search event as drawn: `kind` as `SearchEvent.kind`, the state, the part tried,
+    the checks spent so far, the parts that block it and the deciding rule (refusals), and one
+    line of reason."""
+
+    kind: str
+    state: int
+    part: int
+    checks: int
+    blocking: tuple[int, ...]
+    rule: str | None
+    reason: str
+
+
+@dataclass
+class SearchRecord:
+    """A verified search of one assembly as plan.rrd shows it (search_recording.py)."""
+
+    order: SequenceRecord
+    outcome: str
+    checks: int
+    seconds: float
+    first_checks: int | None
+    expanded: int
+    steps: list[SearchStep]
+    events: int
+    """All events of the search; `steps` holds the first ones only (`max_events`)."""
+
+
+def search_record(
+    group: str,
+    result: SearchResult,
+    scores: StateScores,
+    oracle: SimulatorSteps,
+    truth: GroundTruth | None,
+    truth_orders: int = 5,
+    max_events: int = 2000,
+    cell: bool = True,
+) -> SearchRecord:
+    """What plan.rrd shows of `result` (its first `max_events` events); without `cell`, what
+    plan.json reads of it only (:func:`with_cell` adds the rest)."""
+    checker = oracle.checker
+    names = [p.name for p in checker.assembly.parts]
+    steps = []
+    for event in result.events[:max_events]:
+        if event.kind == "refused":
+            verdict = checker.verdict(event.state, event.part)
+            hit = tuple(sorted({b.part for b in blockers(verdict) if b.part is not None}))
+            steps.append(
+                SearchStep(
+                    event.kind, event.state, event.part, event.checks, hit, verdict.rule,
+                    describe(verdict, names),
+                )
+            )  # fmt: skip
+        elif event.kind == "ruled_out":
+            hit = tuple(mask_to_parts(event.blocked_by or 0))
+            reason = f"ruled out: part {event.part} cannot be placed once parts {list(hit)} are"
+            steps.append(
+                SearchStep(event.kind, event.state, event.part, event.checks, hit, None, reason)
+            )
+        else:
+            steps.append(
+                SearchStep(event.kind, event.state, event.part, event.checks, (), None, "placed")
+            )
+    order = ranked_record(group, result.orders, scores, checker, truth, truth_orders, cell=cell)
+    return SearchRecord(
+        order=order,
+        outcome=str(result.outcome),
+        checks=result.checks,
+        seconds=result.seconds,
+        first_checks=result.first_checks,
+        expanded=result.expanded,
+        steps=steps,
+        events=len(result.events),
+    )

@@ -1,8 +1,8 @@
 """plan.rrd of a verified search: how the search went, and the verified order in the cell.
 
-`search_record` gathers what to draw where the simulator lives (the reasons of every refusal
-from `Simulator.explain`'s verdicts, the cell's poses along the verified order); the writer
-logs, under `/plan/<assembly>` (docs/recordings.md):
+grace/visualisation/records.py's `search_record` gathers what to draw where the simulator lives
+(the reasons of every refusal from `Simulator.explain`'s verdicts, the cell's poses along the
+verified order); the writer logs, under `/plan/<assembly>` (docs/recordings.md):
 
 - on the `check` timeline, one row per search event (a step the checks accepted, a step they
   refused, a state ruled out by a learnt block): the parts placed in that state, the part tried
@@ -16,7 +16,6 @@ logs, under `/plan/<assembly>` (docs/recordings.md):
 from __future__ import annotations
 
 from collections import Counter
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -24,11 +23,6 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from grace.domain.assembly import mask_to_parts
-from grace.domain.orders import GroundTruth
-from grace.planning.cell_steps import SimulatorSteps
-from grace.planning.search import SearchResult
-from grace.planning.topk import StateScores
-from grace.simulation.check import blockers, describe
 from grace.visualisation.recording import (
     BLOCKED,
     BLOCKER,
@@ -42,85 +36,9 @@ from grace.visualisation.recording import (
     record_assembly,
     recording_stream,
 )
-from grace.visualisation.records import SequenceRecord, ranked_record
+from grace.visualisation.records import SearchRecord
 
 SEARCH_TIMELINE = "check"
-
-
-@dataclass(frozen=True)
-class SearchStep:
-    """One search event as drawn: `kind` as `SearchEvent.kind`, the state, the part tried,
-    the checks spent so far, the parts that block it and the deciding rule (refusals), and one
-    line of reason."""
-
-    kind: str
-    state: int
-    part: int
-    checks: int
-    blocking: tuple[int, ...]
-    rule: str | None
-    reason: str
-
-
-@dataclass
-class SearchRecord:
-    """A verified search of one assembly as plan.rrd shows it (module docstring)."""
-
-    order: SequenceRecord
-    outcome: str
-    checks: int
-    seconds: float
-    first_checks: int | None
-    expanded: int
-    steps: list[SearchStep]
-    events: int
-    """All events of the search; `steps` holds the first ones only (`max_events`)."""
-
-
-def search_record(
-    group: str,
-    result: SearchResult,
-    scores: StateScores,
-    oracle: SimulatorSteps,
-    truth: GroundTruth | None,
-    truth_orders: int = 5,
-    max_events: int = 2000,
-) -> SearchRecord:
-    """What plan.rrd shows of `result` (its first `max_events` events)."""
-    checker = oracle.checker
-    names = [p.name for p in checker.assembly.parts]
-    steps = []
-    for event in result.events[:max_events]:
-        if event.kind == "refused":
-            verdict = checker.verdict(event.state, event.part)
-            hit = tuple(sorted({b.part for b in blockers(verdict) if b.part is not None}))
-            steps.append(
-                SearchStep(
-                    event.kind, event.state, event.part, event.checks, hit, verdict.rule,
-                    describe(verdict, names),
-                )
-            )  # fmt: skip
-        elif event.kind == "ruled_out":
-            hit = tuple(mask_to_parts(event.blocked_by or 0))
-            reason = f"ruled out: part {event.part} cannot be placed once parts {list(hit)} are"
-            steps.append(
-                SearchStep(event.kind, event.state, event.part, event.checks, hit, None, reason)
-            )
-        else:
-            steps.append(
-                SearchStep(event.kind, event.state, event.part, event.checks, (), None, "placed")
-            )
-    order = ranked_record(group, result.orders, scores, checker, truth, truth_orders)
-    return SearchRecord(
-        order=order,
-        outcome=str(result.outcome),
-        checks=result.checks,
-        seconds=result.seconds,
-        first_checks=result.first_checks,
-        expanded=result.expanded,
-        steps=steps,
-        events=len(result.events),
-    )
 
 
 def _summary_markdown(record: SearchRecord) -> str:

@@ -17,6 +17,8 @@ import torch
 from grace.cli.fit import train_module
 from grace.errors import UserError
 
+pytestmark = pytest.mark.numerics  # asserts on float results of torch arithmetic (.ci/kernels)
+
 SETTINGS = (
     "trainer.max_epochs=12",
     "datamodule.batch_size=8",

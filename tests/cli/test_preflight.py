@@ -4,6 +4,7 @@ grace/cli/preflight.py). One row per kind of bad input."""
 
 import os
 import re
+import shlex
 import subprocess
 import sys
 import time
@@ -11,8 +12,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.utils import instantiate
 
+import grace.__main__ as entry
 from grace.data.raw_format import export_raw
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -126,7 +129,7 @@ def test_bad_input_is_one_line_exit_2_and_nothing_written(tmp_path, raw, case):
 
 
 VALUES = {
-    "negative seed": (("seed=-1",), r"seed=-1 is outside \[0, ∞\); fix: seed=0"),
+    "negative seed": (("seed=-1",), r"seed=-1 is outside \[0, 4294967295\]; fix: seed=0"),
     "no threads": (("threads=0",), r"threads=0 is outside \[1, ∞\); fix: threads=1"),
     "k of 0": (("task=plan", "planner.k=0"), r"planner.k=0 is outside \[1, ∞\); fix: planner.k=1"),
     "λ above 1": (("task.threshold=1.5",), r"task.threshold=1.5 is outside \[0, 1\]; fix: "),
@@ -141,7 +144,7 @@ VALUES = {
     ),
     "size beyond the cell's slots": (
         ("dataset.sizes={40: 2}",),
-        r"dataset.sizes: sizes \[40\] exceed simulator.cell.max_parts=20 .*; fix: sizes from 1",
+        r"dataset.sizes: sizes \[40\] exceed simulator.cell.max_parts=20 .*; fix: sizes from 2",
     ),
     "count of 0": (
         ("dataset.sizes={3: 0}",),
@@ -236,3 +239,114 @@ def test_the_traceback_comes_on_request(tmp_path, ask):
     assert "Traceback (most recent call last)" in done.stderr
     assert "could not be converted to Integer" in done.stderr
     assert not list(tmp_path.iterdir())
+
+
+PROBE = {
+    "seed beyond numpy's": (("seed=4294967296",), r"seed=4294967296 is outside \[0, 4294967295\]"),
+    "batch of 0": (("datamodule.batch_size=0",), r"datamodule.batch_size=0 is outside \[1, ∞\)"),
+    "negative learning rate": (("model.optimizer.lr=-1",), r"model.optimizer.lr=-1 is outside "),
+    "a size of one part": (
+        ("dataset.sizes={1: 10, 3: 10}",),
+        r"assemblies of \[1\] part\(s\), fewer than the 2 .*; fix: 'dataset.sizes=\{3: 10\}'$",
+    ),
+    "planning one part": (
+        ("task=plan", "ckpt={run}", "assembly={one}"),
+        r"assembly={one}: 1 part; planning needs 2 or more .*; fix: ",
+    ),
+    "more parts than the cell's slots": (
+        ("task=plan", "planner=topk", "ckpt={run}", "assembly={many}"),
+        r"assembly={many}: 21 parts, but the cell .* has 20 part slots .*; fix: an assembly of at "
+        r"most 20 parts, or a model trained with simulator.cell.max_parts=21$",
+    ),
+    "kept config not YAML": (
+        ("task=plan", "ckpt={broken}", "assembly={raw}/a3"),
+        r"{broken}/config.yaml:\d+: not valid YAML .*; fix: use a run folder whose ",
+    ),
+    "unknown interpolation": (
+        ("paths.output_dir=${oops}",),
+        r"paths.output_dir=\$\{oops\}: Interpolation key 'oops' not found; fix: ",
+    ),
+    "hydra.run.dir under a file": (
+        ("hydra.run.dir={file}/run",),
+        r"hydra.run.dir={file}/run lies under the file {file}; fix: ",
+    ),
+    "negative search time": (("planner.max_seconds=-1",), r"planner.max_seconds=-1 is outside "),
+    "no step checks": (("planner.max_checks=0",), r"planner.max_checks=0 is outside \[1, ∞\)"),
+    "negative patience": (
+        ("callbacks.early_stopping.patience=-1",),
+        r"callbacks.early_stopping.patience=-1 is outside \[0, ∞\); fix: ",
+    ),
+    "negative trials": (("task=tune", "tune.n_trials=-1"), r"tune.n_trials=-1 is outside "),
+    "no fold jobs": (("task.fold_jobs=0",), r"task.fold_jobs=0 is outside \[1, ∞\); fix: "),
+    "one fold": (("protocol.folds=1",), r"protocol.folds=1 is outside \[2, ∞\); fix: "),
+    "validation share of 1.5": (
+        ("protocol.val_fraction=1.5",),
+        r"protocol.val_fraction=1.5 is outside \[0, 1\); fix: protocol.val_fraction=0 ",
+    ),
+    "no tune folds": (("task=tune", "tune.folds=0"), r"tune.folds=0 is outside \[1, ∞\); fix: "),
+    "chunks of 0": (("dataset.chunk_size=0",), r"dataset.chunk_size=0 is outside \[1, ∞\)"),
+    "shard beyond the shards": (
+        ("dataset.shard=2", "dataset.num_shards=2"),
+        r"dataset.shard=2 is not below dataset.num_shards=2; fix: dataset.shard=0 to 1 ",
+    ),
+    "raw data, scale's sizes": (  # the raw set lacks most sizes: no warning line before
+        ("dataset=raw", "dataset.path={raw}"),
+        r"protocol intra: protocol.folds=4 leaves fold 0 with 2 test and 0 training",
+    ),
+}
+"""A hostile user's command lines: values that passed the preflight and failed later (or ran
+on silently), refused now in one line with a fix, before torch loads and before the run folder
+exists."""
+
+
+def _profiles(parts: int) -> str:
+    """A raw assembly.spec of `parts` 200 mm profiles side by side."""
+    pose = "1;0;0;{x}&0;1;0;0&0;0;1;0&0;0;0;1"
+    rows = [f"p{i} item_profile_200 {pose.format(x=100 * i - 1000)}" for i in range(parts)]
+    return "\n".join(["begin Pieces", *rows, "end Pieces"]) + "\n"
+
+
+@pytest.fixture
+def plan_inputs(tmp_path, raw) -> dict[str, str]:
+    """A kept run (an empty checkpoint beside a config whose cell has 20 part slots), one with a
+    config.yaml that is not YAML, and assemblies of 1 and 21 parts."""
+    places = {"{raw}": str(raw), "{file}": str(tmp_path / "file")}
+    for name, config in (("run", "model: {}\nsimulator: {cell: {max_parts: 20}}\n"),
+                         ("broken", "model: [unclosed\n")):  # fmt: skip
+        (tmp_path / name / "checkpoints").mkdir(parents=True)
+        (tmp_path / name / "checkpoints" / "best.ckpt").write_bytes(b"")
+        (tmp_path / name / "config.yaml").write_text(config)
+        places[f"{{{name}}}"] = str(tmp_path / name)
+    for name, parts in (("one", 1), ("many", 21)):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "assembly.spec").write_text(_profiles(parts))
+        places[f"{{{name}}}"] = str(tmp_path / name)
+    (tmp_path / "file").write_text("not a folder\n")
+    return places
+
+
+@pytest.mark.parametrize("case", PROBE, ids=list(PROBE))
+def test_a_probed_command_line_is_refused_in_one_line_before_any_work(tmp_path, plan_inputs, case):
+    arguments, expected = PROBE[case]
+    for place, value in plan_inputs.items():
+        arguments = tuple(a.replace(place, value) for a in arguments)
+        expected = expected.replace(place, re.escape(value))
+    before = files(tmp_path)
+    code, lines, modules, seconds = grace(tmp_path, *arguments, f"paths.data_dir={tmp_path}/d")
+    assert code == 2, lines
+    assert len(lines) == 1 and lines[0].startswith("grace: error: "), lines
+    assert re.search(expected, lines[0]), lines[0]
+    assert files(tmp_path) == before  # no run folder, no log, no cache
+    assert not modules & set(HEAVY), f"{case}: heavy imports before the error ({seconds:.1f} s)"
+
+
+@pytest.mark.parametrize("folder", ["/tmp/runs/a b", "/tmp/x,y=z[1]", "/tmp/it's here"])
+def test_the_resume_hint_pastes_back_as_the_run_folder(capsys, folder):
+    """The line a stopped run prints is one shell word that Hydra reads back as the folder."""
+    with pytest.raises(SystemExit) as stop:
+        entry._interrupted(folder)
+    assert stop.value.code == 130
+    hint = capsys.readouterr().out.strip().split("to resume: the same command with ")[1]
+    (word,) = shlex.split(hint)
+    (override,) = OverridesParser.create().parse_overrides([word])
+    assert override.key_or_group == "paths.output_dir" and override.value() == folder

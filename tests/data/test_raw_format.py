@@ -1,11 +1,12 @@
 import codecs
+import math
 from pathlib import Path
 
 import numpy as np
 import pytest
 from hydra.utils import instantiate
 
-from grace.data.loading import import_raw_tree
+from grace.data.loading import RawSource, import_raw_tree
 from grace.data.raw_format import (
     RAW_FILES,
     RawFormatError,
@@ -120,6 +121,37 @@ def test_infeasible_assembly_keeps_its_dead_ends(tmp_path):
         "stem,bar",
     ]
     assert import_raw(tmp_path / "x").truth == truth
+
+
+def test_dead_ends_are_bounded_by_the_dag_and_read_back_by_dataset_raw(tmp_path):
+    """One order completes (0, 1, …, 8); placed before part 0, the others go in any order and
+    end stuck: 8! = 40320 dead-end paths. inter_solutions.csv holds at most one line per step
+    off the complete orders (8·2^7 = 1024), and dataset=raw reads the exact ground truth."""
+    n = 9
+
+    def can_place(state: int, part: int) -> bool:
+        if part == 0:
+            return state == 0
+        return state == (1 << part) - 1 if state & 1 else True
+
+    truth = GroundTruth.explore(n, can_place)
+    masks = zip(truth.states.tolist(), truth.placeable.tolist(), strict=True)
+    stuck = {s for s, p in masks if not p}
+    paths = truth.path_counts()
+    assert sum(paths[s] for s in stuck if s != (1 << n) - 1) == math.factorial(n - 1)
+    steps = zip(truth.placeable.tolist(), truth.completable.tolist(), strict=True)
+    off_steps = sum((p & ~c).bit_count() for p, c in steps)
+    assert off_steps == (n - 1) * 2 ** (n - 2)
+    parts = tuple(
+        Part(f"p{k}", PartType.PROFILE_200, planar_pose(300 * (k % 3), 300 * (k // 3)))
+        for k in range(n)
+    )
+    sample = LabelledAssembly(Assembly(parts, name="stuck"), truth, {})
+    export_raw(sample, tmp_path / "raw" / "A9" / "stuck")
+    lines = (tmp_path / "raw" / "A9" / "stuck" / "inter_solutions.csv").read_text().splitlines()
+    assert 0 < len(lines) <= off_steps and lines == sorted(lines, key=lambda x: x.split(","))
+    (imported,) = RawSource(data_dir=str(tmp_path / "data"), path=str(tmp_path / "raw")).load()
+    assert imported.truth == truth and imported.truth.n_orders() == 1
 
 
 def test_missing_inter_solutions_is_optional(tmp_path):

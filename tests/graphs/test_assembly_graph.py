@@ -12,6 +12,8 @@ from grace.graphs.assembly_graph import (
 )
 from grace.graphs.encoding import GraphEncoding, sinusoidal_pe
 
+pytestmark = pytest.mark.numerics  # asserts on float results of torch arithmetic (.ci/kernels)
+
 
 def frame() -> Assembly:
     """A 300 mm bar, a 200 mm post standing on it, a bracket in their corner."""

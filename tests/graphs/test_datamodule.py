@@ -8,11 +8,10 @@ from torch.utils.data import DataLoader
 
 from grace.domain.assembly import full_mask
 from grace.errors import UserError
+from grace.graphs.batches import collate_dense, collate_graphs
 from grace.graphs.datamodule import (
     AssemblyBatchSampler,
     StateDataModule,
-    collate_dense,
-    collate_graphs,
     state_masks,
     step_weights,
     training_states,
@@ -20,6 +19,8 @@ from grace.graphs.datamodule import (
 from grace.graphs.dense import DenseAssemblies
 from grace.graphs.encoding import GraphEncoding
 from grace.model.module import step_auc
+
+pytestmark = pytest.mark.numerics  # asserts on float results of torch arithmetic (.ci/kernels)
 
 CONFIG_ERRORS = (ConfigCompositionException, InstantiationException)
 """A bad value fails at composition (a type) or at instantiation (a range)."""

@@ -5,6 +5,8 @@ from hydra.utils import instantiate
 
 from grace.graphs.encoding import GraphEncoding, node_ids, sinusoidal_pe
 
+pytestmark = pytest.mark.numerics  # asserts on float results of torch arithmetic (.ci/kernels)
+
 CONFIG_ERRORS = (ConfigCompositionException, InstantiationException)
 """A bad value fails at composition (a type) or at instantiation (a range)."""
 

@@ -1,8 +1,10 @@
 import pytest
+import torch
 from hydra.utils import instantiate
 
 from grace import CONF_DIR
-from grace.model.grace_pyg import count_parameters
+from grace.model.grace_fast import WEIGHT_LAYERS
+from grace.model.grace_pyg import GraceNet, count_parameters
 from grace.model.impls import FastImpl
 from grace.model.module import GraceModule
 
@@ -26,3 +28,9 @@ def test_model_configs_build_the_same_network(cfg_factory, name):
     assert isinstance(module, GraceModule) and isinstance(module.impl, FastImpl)
     assert module.name == name
     assert count_parameters(module.net) == EXTENDED.get(name, 51_701)
+    # Planning builds it from parameter holders (grace/model/checkpoints.py): every parameter of
+    # the PyG-built network, under its name and shape, and nothing else.
+    with torch.device("meta"):
+        held = GraceNet(module.net.cfg, WEIGHT_LAYERS)
+    shapes = {key: tuple(w.shape) for key, w in module.net.state_dict().items()}
+    assert {key: tuple(w.shape) for key, w in held.state_dict().items()} == shapes

@@ -20,6 +20,8 @@ from grace.model.grace_fast import shared_work, state_features
 from grace.model.impls import PreparedAssembly
 from grace.model.scoring import Scorer, evaluation_tensors
 
+pytestmark = pytest.mark.numerics  # asserts on float results of torch arithmetic (.ci/kernels)
+
 PATHS = [
     ("grace", "fast"),
     ("grace_state", "fast"),  # the state-aware surface blocks

@@ -1,8 +1,11 @@
 import math
 
+import pytest
 import torch
 
 from grace.model.loss import ListwiseLoss, grace_loss, listwise_loss
+
+pytestmark = pytest.mark.numerics  # asserts on float results of torch arithmetic (.ci/kernels)
 
 
 def test_loss_is_weighted_bce_plus_placed_part_penalty():

@@ -13,6 +13,8 @@ from grace.model.impls import CompiledImpl, FastImpl, PygImpl
 from grace.model.module import GraceModule
 from grace.model.scoring import make_scorer, part_embeddings
 
+pytestmark = pytest.mark.numerics  # asserts on float results of torch arithmetic (.ci/kernels)
+
 
 def module(state_blocks: int = 0, pair_readout: int = 0, **graph) -> GraceModule:
     """Seeded weights, so that a test's draw does not depend on which tests ran before."""

@@ -14,7 +14,7 @@ def test_bounded_top_k_equals_the_full_listing(n, seed, lam):
     scored = score_states(TableScorer(n, seed, levels=10**9), line_assembly(n))  # no ties
     full = plan(scored, lam)
     order = np.argsort(-full.probabilities, kind="stable")[:8]
-    best = top_k(table_scores(scored), n, 8, lam, completion_bounds(scored, lam))
+    best, _ = top_k(table_scores(scored), n, 8, lam, completion_bounds(scored, lam))
     assert [r.sequence for r in best] == [tuple(full.sequences[i]) for i in order]
     assert [r.probability for r in best] == [full.probabilities[i] for i in order]
     bounds = completion_bounds(scored, 0.0)
@@ -30,7 +30,7 @@ def test_uniform_scores_do_not_expand_every_prefix():
         expanded.append(state)
         return scored.table[state]
 
-    best = top_k(scores, n, 10, 0.0, completion_bounds(scored, 0.0))
+    best, _ = top_k(scores, n, 10, 0.0, completion_bounds(scored, 0.0))
     assert len(best) == 10 and all(np.isclose(r.probability, 0.5**n) for r in best)
     assert len(expanded) < 10 * n * n
 

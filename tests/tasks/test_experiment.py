@@ -9,6 +9,8 @@ import pytest
 
 from grace.tasks.experiment import run
 
+pytestmark = pytest.mark.numerics  # asserts on float results of torch arithmetic (.ci/kernels)
+
 ROOT = Path(__file__).resolve().parents[2]
 
 

@@ -6,6 +6,8 @@ import pytest
 
 from grace.tasks.feasibility import FEASIBLE_ONLY, run
 
+pytestmark = pytest.mark.numerics  # asserts on float results of torch arithmetic (.ci/kernels)
+
 
 def test_feasibility_task_trains_both_models_and_writes_every_scheme(tmp_path, fake_cfg):
     cfg = fake_cfg(

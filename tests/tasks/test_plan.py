@@ -94,8 +94,9 @@ def test_plan_with_a_model_fitted_to_a_hand_made_assembly(cfg_factory, tmp_path)
     # All 3! orders best first: the known ones first, every other one refused by the simulator
     # at its first step outside them, with the deciding rule.
     result, cfg = plan(
-        cfg_factory, train / "checkpoints" / "best.ckpt", asm, "planner=topk", "planner.k=6"
-    )
+        cfg_factory, train / "checkpoints" / "best.ckpt", asm, "planner=topk", "planner.k=6",
+        "task.recording=true",
+    )  # fmt: skip
     ranked = [tuple(s["sequence"]) for s in result["sequences"]]
     assert sorted(ranked) == sorted(itertools.permutations(range(3)))
     assert set(ranked[:2]) == KNOWN_ORDERS
@@ -121,7 +122,7 @@ def test_plan_with_a_model_fitted_to_a_hand_made_assembly(cfg_factory, tmp_path)
 
     # The default planner, the verified search: only orders every step of which the simulator
     # accepts, the most probable first, and the search itself in plan.rrd.
-    result, cfg = plan(cfg_factory, train, asm, "planner.k=2")
+    result, cfg = plan(cfg_factory, train, asm, "planner.k=2", "task.recording=true")
     assert result["outcome"] == "verified" and result["checks"] >= 3
     assert {tuple(o["sequence"]) for o in result["orders"]} == KNOWN_ORDERS
     assert all(all(o["simulator"]["verdicts"]) and len(o["simulator"]["verdicts"]) == 3
@@ -134,6 +135,27 @@ def test_plan_with_a_model_fitted_to_a_hand_made_assembly(cfg_factory, tmp_path)
         summary.entities
     )
     assert any("placed" in t for _, _, t in text_entries(rrd, "/search/log"))
+    # From the command line, the same answer without the libraries planning does not need,
+    # each seconds to import (Lightning, PyG, torch.compile's stack, rerun, matplotlib), and
+    # without plan.rrd unless asked for.
+    out = tmp_path / "cli"
+    done = subprocess.run(
+        [sys.executable, "-X", "importtime", "-m", "grace", "task=plan", f"ckpt={train}",
+         f"assembly={asm}", "planner.k=2", f"paths.output_dir={out}",
+         f"paths.data_dir={tmp_path / 'data'}"],
+        cwd=tmp_path, capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr[-2000:]
+    imported = {
+        line.split("|")[-1].strip() for line in done.stderr.splitlines() if "import time:" in line
+    }
+    heavy = {"lightning", "torch_geometric", "torchmetrics", "rerun", "matplotlib", "sklearn"}
+    assert not {m for m in imported if m.split(".")[0] in heavy}
+    assert "torch._dynamo" not in imported and "torch" in imported
+    cli = json.loads((out / "plan.json").read_text())
+    assert [o["sequence"] for o in cli["orders"]] == [o["sequence"] for o in result["orders"]]
+    assert not (out / "plan.rrd").exists() and "plan.rrd" not in done.stdout
+
     # Two stems 8 mm apart: whichever comes second cannot be gripped. Infeasible, and said so.
     rails = tmp_path / "rails"
     rails.mkdir()

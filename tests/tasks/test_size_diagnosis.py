@@ -16,6 +16,8 @@ from grace.evaluation.step_states import label_matrix, onpath_states
 from grace.tasks.experiment import run as experiment
 from grace.tasks.size_diagnosis import run as diagnose
 
+pytestmark = pytest.mark.numerics  # asserts on float results of torch arithmetic (.ci/kernels)
+
 SIZES = "dataset.sizes={3: 6, 4: 6, 5: 6, 8: 4}"
 
 

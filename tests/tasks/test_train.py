@@ -13,6 +13,8 @@ from grace.model.module import GraceModule
 from grace.model.scoring import make_scorer
 from grace.tasks.train import run
 
+pytestmark = pytest.mark.numerics  # asserts on float results of torch arithmetic (.ci/kernels)
+
 
 def _pr_area(scores: np.ndarray, labels: np.ndarray) -> float:
     """Area under the precision-recall points of every threshold, from (recall 0, precision 1),

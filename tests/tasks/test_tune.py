@@ -8,6 +8,7 @@ import re
 import shlex
 import subprocess
 import sys
+import threading
 from pathlib import Path
 
 import optuna
@@ -17,7 +18,7 @@ from omegaconf import OmegaConf
 
 from grace.cli.tune_space import parse_space, suggest, trial_config
 from grace.errors import UserError
-from grace.tasks.tune import KeptMetric, run
+from grace.tasks.tune import KeptMetric, open_study, run
 
 ROOT = Path(__file__).resolve().parents[2]
 TASKS = Path(__file__).resolve().parent
@@ -184,3 +185,29 @@ def test_tune_reads_the_selection_data_set_and_experiments_the_evaluation_one(cf
     assert cfg_factory("experiment=selection").dataset.seed == 1
     assert cfg_factory("task=tune").dataset.seed == 1
     assert cfg_factory("task=tune", "dataset.seed=0").dataset.seed == 0
+
+
+def test_processes_opening_one_new_study_at_once_all_get_it(tmp_path, cfg_factory):
+    """Three openers of one new SQLite study at the same moment (threads, each with its own
+    connection, as processes have): every one gets the study, in each of ten tries.
+    tests/tasks/tune_race.py measures the same with whole task=tune processes."""
+    cfg = cfg_factory("task=tune", *FAKES, *SMALL, "tune.n_trials=1")
+    for attempt in range(10):
+        url = f"sqlite:///{tmp_path / f'study_{attempt}.db'}"
+        start, opened, failed = threading.Barrier(3), [], []
+
+        def open_one(url=url, start=start, opened=opened, failed=failed):
+            start.wait()
+            try:
+                opened.append(open_study(cfg, url).study_name)
+            except Exception as error:  # the failure is the finding
+                failed.append(error)
+
+        openers = [threading.Thread(target=open_one) for _ in range(3)]
+        for opener in openers:
+            opener.start()
+        for opener in openers:
+            opener.join()
+        assert not failed, f"try {attempt}: {failed[0]!r}"
+        assert opened == ["grace"] * 3
+        assert optuna.get_all_study_names(storage=url) == ["grace"]
