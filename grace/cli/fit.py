@@ -163,6 +163,7 @@ def resume_from(cfg: DictConfig, out_dir: str | Path, callbacks: Sequence[object
 
 PLANNING_ONLY = (
     *("model.net.score", "classifier", "task.checkpoints", "task.scorer", "task.threshold"),
+    "threshold",
     *("task.ks", "task.baselines", "task.recording", "task.classifiers", "task.densities"),
 )
 """Keys that change how a trained model plans and is measured, never its weights (the score is

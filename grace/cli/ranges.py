@@ -99,6 +99,7 @@ RANGES: dict[str, Range] = {
     "dataset.shard": at_least(0, "this process's share of the chunks, 0 to num_shards − 1"),
     "dataset.num_shards": at_least(1, "processes sharing the generation; 1: this one alone"),
     "dataset.workers": at_least(1, "generating processes on this machine"),
+    "dataset.distinct_from": SEED,
     # protocol (grace.evaluation.protocols.ProtocolSettings)
     "protocol.folds": at_least(2, "cross-validation needs at least 2 folds"),
     "protocol.val_fraction": Range(
@@ -129,6 +130,7 @@ RANGES: dict[str, Range] = {
     "model.delta": at_least(0, "the weight of the placed-part regulariser (paper Eq. 4)"),
     "model.placeable_pos_weight": above(0, "the weight of positive placeable labels", 1),
     "model.seed": SEED,
+    "model.loss.rank_weight": at_least(0, "the weight of the listwise ranking term; 0: none"),
     "model.optimizer.lr": above(0, "a learning rate", 0.0022),
     "model.scheduler.eta_min": at_least(0, "the cosine schedule's last learning rate"),
     "model.scheduler.factor": Range(
@@ -191,6 +193,7 @@ RANGES: dict[str, Range] = {
     "planner.max_expansions": at_least(1, "prefixes the unbounded listing expands"),
     "planner.touch_tolerance": MM,
     "planner.max_checks": at_least(1, "simulator step checks; null: unlimited"),
+    "threshold.floor": fraction("the lowest score that opens a branch (scores are probabilities)"),
     "planner.max_seconds": above(0, "seconds of search; null: unlimited", 10),
     "planner.exhaustive_parts": at_least(0, "parts up to which the brute force decides; 0: never"),
     "planner.exhaustive_after": at_least(0, "checks per part the search spends before it"),

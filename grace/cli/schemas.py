@@ -179,6 +179,7 @@ class RootConfig:
     protocol: Any = None
     classifier: Any = None
     planner: Any = None
+    threshold: Any = None
     scale: Any = None
     tune: Any = None
 
@@ -252,6 +253,15 @@ def _planner_schemas() -> dict[str, type]:
     return {"planner/verified": schema(VerifiedSearch), "planner/topk": schema(TopKListing)}
 
 
+def _threshold_schemas() -> dict[str, type]:
+    from grace.planning.thresholds import AbsoluteThreshold, RelativeThreshold
+
+    return {
+        "threshold/absolute": schema(AbsoluteThreshold),
+        "threshold/relative": schema(RelativeThreshold),
+    }
+
+
 GROUP_SCHEMAS: dict[str, Callable[[], dict[str, type]]] = {
     "model": _model_schemas,
     "datamodule": _datamodule_schemas,
@@ -260,6 +270,7 @@ GROUP_SCHEMAS: dict[str, Callable[[], dict[str, type]]] = {
     "logger": _logger_schemas,
     "tune": _tune_schemas,
     "planner": _planner_schemas,
+    "threshold": _threshold_schemas,
 }
 """Config group → the schemas of its components, built on torch and Lightning (their modules
 take seconds to import, hence imported here, on demand)."""

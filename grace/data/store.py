@@ -27,6 +27,7 @@ for. docs/operations.md, "Cache integrity".
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import hashlib
 import json
 import logging
@@ -46,6 +47,7 @@ from tqdm import tqdm
 
 from grace.data import claims
 from grace.data.atomic import write_json_atomic, write_text_atomic
+from grace.data.distinct import distinct_from
 from grace.data.folders import obstacle
 from grace.data.shards import (
     SHARD_SUFFIX,
@@ -431,7 +433,10 @@ class GeneratedSource:
     `simulator` is the simulator's config (`_target_` and arguments), not an instance: it is
     hashed into the cache key and instantiated in every worker process. `sizes` (size → count),
     `chunk_size`, `shard`, `num_shards` and `workers` decide how much is generated, where and
-    how fast, never what an assembly is: they stay out of the key.
+    how fast, never what an assembly is: they stay out of the key. With `distinct_from` (a
+    data seed) :meth:`load` replaces every assembly whose canonical form is in the data set of
+    that seed and the same sizes by the next draw of its size that is not (grace/data/distinct.py):
+    the selection data set shares no assembly with the evaluation one.
     """
 
     simulator: dict[str, Any]
@@ -442,6 +447,7 @@ class GeneratedSource:
     shard: int = 0
     num_shards: int = 1
     workers: int = 1
+    distinct_from: int | None = None
 
     def key_config(self) -> dict[str, Any]:
         """What decides the data set's contents (what the cache key hashes)."""
@@ -512,8 +518,17 @@ class GeneratedSource:
         survey(self.path, chunks, _share(chunks, self.shard, self.num_shards))
 
     def load(self) -> list[LabelledAssembly]:
-        """Generate whatever is missing (all shards' share) and load the data set."""
-        return self.read(self.generate(shard=0, num_shards=1))
+        """Generate whatever is missing (all shards' share) and load the data set; with
+        `distinct_from`, without the copies of that seed's data set (replaced by new draws)."""
+        if self.distinct_from is None:
+            return self.read(self.generate(shard=0, num_shards=1))
+        plain = dataclasses.replace(self, distinct_from=None)
+        reference = dataclasses.replace(plain, seed=self.distinct_from).load()
+
+        def draws(sizes: dict[int, int]) -> list[LabelledAssembly]:
+            return dataclasses.replace(plain, sizes=sizes).load()
+
+        return distinct_from(draws, self.counts(), reference)
 
     def read(self, generation: Generation) -> list[LabelledAssembly]:
         """The assemblies of a complete `generation` in order (size ascending, then index). A

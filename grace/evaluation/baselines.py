@@ -5,6 +5,8 @@ A metric reads honestly only beside what a policy that knows nothing gets (docs/
 - `random`: every unplaced part scores uniformly at random; the gap to GRACE is what learning adds;
 - `constant`: every unplaced part scores 0.5, so Algorithm 1 at λ ≤ 0.5 retrieves all N! orders
   and above it none; its sequence AUC is (1 + mean IR precision of "everything") / 2, above 0.5;
+  P@k ranks its tied sequences in a seeded random order (grace.evaluation.evaluate.tie_order),
+  so its P@1 is that of a random order, not of the part numbering;
 - `never`: scores below every threshold, so Algorithm 1 retrieves nothing at any λ: sequence AUC
   exactly 0.5 (recall 0, precision 1 by the empty-retrieval rule), paper P@k 1, strict P@k 0.
 

@@ -16,6 +16,7 @@ negatives, as in the reference's per-node evaluation.
 
 from __future__ import annotations
 
+import zlib
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -82,8 +83,10 @@ def evaluate_assembly(
     lambdas: np.ndarray = LAMBDAS,
     k_max: int = 3,
     threshold: float = 0.5,
+    tie_order: np.ndarray | None = None,
 ) -> AssemblyEval:
-    """Score the assembly's states once and derive everything the metrics need."""
+    """Score the assembly's states once and derive everything the metrics need; P@k breaks
+    ties of equal probability by `tie_order` (grace.planning.topk.top_k)."""
     n = sample.size
     truth = sample.truth
     scored = score_states(scorer, sample.assembly, threshold=0.0)
@@ -92,7 +95,8 @@ def evaluate_assembly(
     off_states, off_masks = offpath_states(truth)
     dead_states, dead_masks = dead_end_steps(truth)
     table, extra = _step_table(scorer, sample, scored, np.concatenate([on_states, off_states]))
-    best, _ = top_k(table_scores(scored), n, k_max, threshold, completion_bounds(scored, threshold))
+    bounds = completion_bounds(scored, threshold)
+    best, _ = top_k(table_scores(scored), n, k_max, threshold, bounds, tie_order=tie_order)
     valid = label_table(truth)
     return AssemblyEval(
         size=n,
@@ -206,15 +210,28 @@ def summarize(
     }
 
 
+def tie_order(sample: LabelledAssembly, seed: int) -> np.ndarray:
+    """A random rank per part, seeded by `seed` and the assembly's name: how P@k breaks ties
+    of equal probability, so that a policy of tied scores (the `constant` floor) ranks a
+    uniformly random order first rather than the part numbering's (docs/metrics.md)."""
+    name = zlib.crc32(sample.assembly.name.encode())
+    return np.random.default_rng([seed, sample.size, name]).permutation(sample.size)
+
+
 def evaluate_by_size(
     scorer: Scorer,
     samples: Sequence[LabelledAssembly],
     ks: Sequence[int] = (1, 2, 3),
     threshold: float = 0.5,
+    seed: int = 0,
 ) -> dict[int, dict]:
-    """{size: summarize(...)} of one policy on one fold's test assemblies."""
+    """{size: summarize(...)} of one policy on one fold's test assemblies; `seed` seeds the
+    tie-break of P@k (:func:`tie_order`)."""
     by_size: dict[int, list[AssemblyEval]] = {}
     for sample in samples:
-        evaluated = evaluate_assembly(scorer, sample, k_max=max(ks), threshold=threshold)
+        ties = tie_order(sample, seed)
+        evaluated = evaluate_assembly(
+            scorer, sample, k_max=max(ks), threshold=threshold, tie_order=ties
+        )
         by_size.setdefault(sample.size, []).append(evaluated)
     return {size: summarize(evals, ks, threshold) for size, evals in sorted(by_size.items())}

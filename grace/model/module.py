@@ -30,6 +30,10 @@ Optimizer = Callable[[Iterable[torch.nn.Parameter]], torch.optim.Optimizer]
 Scheduler = Callable[[torch.optim.Optimizer], Any]
 """The lr scheduler without its optimiser (a `_partial_` config)."""
 
+StepLoss = Callable[..., torch.Tensor]
+"""`loss(logits, labels, flags, mask, delta, weights)` of the next-step output (`model/loss=`):
+None is the paper's (grace_loss), `model/loss=listwise` adds a ranking term (ListwiseLoss)."""
+
 
 def step_auc(scores: torch.Tensor, labels: torch.Tensor) -> torch.Tensor | None:
     """Step AUC (docs/metrics.md): area under the precision–recall curve of part scores against
@@ -61,6 +65,7 @@ class GraceModule(pl.LightningModule):
         scheduler: Scheduler | None = None,
         delta: float = 0.3,
         placeable_pos_weight: float = 1.0,
+        loss: StepLoss | None = None,
         monitor: str = "val_loss",
         seed: int = 0,
         name: str = "grace",
@@ -72,6 +77,7 @@ class GraceModule(pl.LightningModule):
         self.impl = impl
         self.delta = delta
         self.placeable_pos_weight = placeable_pos_weight
+        self.step_loss = grace_loss if loss is None else loss
         self.seed = seed
         self.name = name
         self._outputs: dict[str, list[tuple[torch.Tensor, torch.Tensor]]] = {"train": [], "val": []}
@@ -82,11 +88,14 @@ class GraceModule(pl.LightningModule):
         return self.impl.logits(self.net, batch)
 
     def loss(self, batch: StateBatch, logits: torch.Tensor) -> torch.Tensor:
-        """The training loss of a batch's logits (paper Eq. 4; with the placeable head, plus
-        the same loss of the second output on the placeable labels)."""
+        """The training loss of a batch's logits (paper Eq. 4, or the `loss` given, on the
+        next-step output; with the placeable head, plus the paper's loss of the second output on
+        the placeable labels)."""
         two = self.net.cfg.placeable_head
         step = logits[..., 0] if two else logits
-        loss = grace_loss(step, batch.labels, batch.flags, batch.mask, self.delta, batch.weights)
+        loss = self.step_loss(
+            step, batch.labels, batch.flags, batch.mask, self.delta, batch.weights
+        )
         if two:  # the placeable output learns physics in every state: no dead-end or step weights
             loss = loss + grace_loss(
                 logits[..., 1],

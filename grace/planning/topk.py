@@ -79,6 +79,7 @@ def top_k(
     bounds: np.ndarray | None = None,
     max_expansions: int | None = None,
     max_seconds: float | None = None,
+    tie_order: np.ndarray | None = None,
 ) -> tuple[list[Ranked], bool]:
     """The k most probable complete sequences with every step score ≥ `threshold`, and whether
     a budget stopped the search before it found k (or proved there are fewer).
@@ -89,17 +90,24 @@ def top_k(
     can make the search expand up to N! prefixes: `max_expansions` and `max_seconds` (each
     expansion scores a state, a few ms at 20 parts) stop it there, with the sequences found so
     far (maybe none).
+
+    Ties of equal priority go to the prefix first in lexicographic order of the parts' ranks
+    `tie_order[part]` (default: the part numbers). A policy of equal scores (the `constant`
+    floor) returns the identity order first under the default, which is no neutral choice when
+    the numbering means something (generated parts are numbered by distance from the origin);
+    a random permutation makes its first sequence a uniformly random order.
     """
     full = full_mask(n_parts)
     start = 1.0 if bounds is None else float(bounds[0])
-    heap: list[tuple[float, tuple[int, ...], int, tuple[float, ...], float]] = [
-        (-start, (), 0, (), 1.0)
+    rank = np.arange(n_parts) if tie_order is None else np.asarray(tie_order)
+    heap: list[tuple[float, tuple[int, ...], tuple[int, ...], int, tuple[float, ...], float]] = [
+        (-start, (), (), 0, (), 1.0)
     ]
     out: list[Ranked] = []
     expansions = 0
     deadline = math.inf if max_seconds is None else time.perf_counter() + max_seconds
     while heap and len(out) < k:
-        _, prefix, state, steps, prob = heapq.heappop(heap)
+        _, ranks, prefix, state, steps, prob = heapq.heappop(heap)
         if state == full:
             out.append(Ranked(prefix, prob, steps))
             continue
@@ -117,8 +125,17 @@ def top_k(
             rest = 1.0 if bounds is None else float(bounds[child])
             if bounds is not None and rest <= 0.0:
                 continue  # no completion passes λ from here
+            priority = -(prob * step) * rest
             heapq.heappush(
-                heap, (-(prob * step) * rest, (*prefix, part), child, (*steps, step), prob * step)
+                heap,
+                (
+                    priority,
+                    (*ranks, int(rank[part])),
+                    (*prefix, part),
+                    child,
+                    (*steps, step),
+                    prob * step,
+                ),
             )
     return out, False
 

@@ -66,13 +66,15 @@ class ExperimentSettings(TaskSettings):
 
 
 def _policies(cfg: DictConfig, module: object, fold: Fold) -> dict[str, Scorer]:
-    """GRACE from the trained module plus every baseline of `task.baselines`, seeded per fold."""
+    """GRACE from the trained module plus every baseline of `task.baselines`, seeded per fold,
+    each planned under the `threshold` rule (the paper's absolute λ, or relative)."""
     unknown = sorted(set(cfg.task.baselines) - set(BASELINES))
     if unknown:
         raise ValueError(f"task.baselines: unknown {unknown}; choose from {sorted(BASELINES)}")
     policies = {"GRACE": instantiate(cfg.task.scorer)(module)}
     policies.update({b: BASELINES[b](cfg.seed + fold.index) for b in cfg.task.baselines})
-    return policies
+    rule = instantiate(cfg.threshold)
+    return {name: rule(scorer) for name, scorer in policies.items()}
 
 
 @dataclass
@@ -122,7 +124,7 @@ def run_fold(
     ks = [int(k) for k in cfg.task.ks]
     policies = _policies(cfg, module, fold)
     metrics = {
-        name: evaluate_by_size(scorer, test, ks, cfg.task.threshold)
+        name: evaluate_by_size(scorer, test, ks, cfg.task.threshold, cfg.seed + fold.index)
         for name, scorer in policies.items()
     }
     estimator = OmegaConf.select(cfg, "classifier.estimator")

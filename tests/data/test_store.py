@@ -23,6 +23,7 @@ from grace.data import claims
 from grace.data.records import dumps, loads
 from grace.data.shards import SHARD_SUFFIX, ShardInfo, encode_shard
 from grace.data.store import Chunk, plan, read_chunk, seconds_per_assembly
+from grace.domain.canonical import assembly_key
 from grace.errors import UserError
 
 
@@ -88,6 +89,31 @@ def test_generate_and_load_are_deterministic(fake_cfg, tmp_path):
     other_seed = fake_cfg("dataset.seed=1")
     generate(other_seed)
     assert _data_bytes(dataset_dir(other_seed)) != _data_bytes(dataset_dir(cfg))
+
+
+def test_distinct_data_set_holds_no_copy_of_the_other(fake_cfg):
+    """The selection data set's rule: no assembly in canonical form is also in the data set of
+    `distinct_from`; copies are replaced by the next draws, so every count is kept."""
+    sizes = "{1: 6, 2: 12}"  # the fake's A1 has 8 layouts, A2 64: copies are frequent
+    evaluation = {assembly_key(s) for s in load_generated(fake_cfg(sizes=sizes))}
+    plain = load_generated(fake_cfg("dataset.seed=1", sizes=sizes))
+    assert sum(assembly_key(s) in evaluation for s in plain) >= 2  # the failure this prevents
+    cfg = fake_cfg("dataset.seed=1", "dataset.distinct_from=0", sizes=sizes)
+    distinct = load_generated(cfg)
+    assert [s.size for s in distinct] == [1] * 6 + [2] * 12
+    assert not any(assembly_key(s) in evaluation for s in distinct)
+    many = load_generated(fake_cfg("dataset.seed=1", sizes="{1: 60, 2: 60}"))
+    first = [  # the first draws of each size that are no copies, in index order
+        s for n, count in ((1, 6), (2, 12))
+        for s in [s for s in many if s.size == n and assembly_key(s) not in evaluation][:count]
+    ]  # fmt: skip
+    assert distinct == first
+    assert load_generated(cfg) == distinct
+
+
+def test_distinct_data_set_stops_when_the_other_holds_every_layout(fake_cfg):
+    with pytest.raises(UserError, match="distinct_from"):  # 40 A1 draws cover all 8 layouts
+        load_generated(fake_cfg("dataset.seed=1", "dataset.distinct_from=0", sizes="{1: 40}"))
 
 
 def test_cache_key_ignores_operational_keys_only(fake_cfg):

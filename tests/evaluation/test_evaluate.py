@@ -98,11 +98,20 @@ def test_constant_policy_retrieves_everything_at_or_below_one_half():
     summary = evaluate_by_size(constant_scorer(0), [CHAIN])[3]
     # λ ≤ 0.5 retrieves all 6 orders (precision 1/3, recall 1), above nothing: (1 + 1/3) / 2
     assert summary["seq_auc"] == pytest.approx(2 / 3)
-    # ties broken lexicographically: (0, 1, 2) then (0, 2, 1)
-    assert summary["p_at_k_strict"]["1"]["value"] == 1.0
-    assert summary["p_at_k_strict"]["2"]["value"] == 0.5
     # placed parts 0, unplaced 0.5: precision 5/8 at full recall, closed at (0, 1)
     assert summary["step_auc"] == pytest.approx((1 + 5 / 8) / 2)
+
+
+def test_constant_policy_ranks_a_random_order_first():
+    # All 6 orders tie; 2 are true. In part-number order the first would always be (0, 1, 2),
+    # a true order (P@1 = 1); a seeded random tie-break ranks each order first as often.
+    firsts = [
+        evaluate_by_size(constant_scorer(0), [CHAIN], seed=seed)[3]["p_at_k_strict"]["1"]["value"]
+        for seed in range(300)
+    ]
+    assert np.mean(firsts) == pytest.approx(1 / 3, abs=0.06)
+    runs = [evaluate_by_size(constant_scorer(0), [CHAIN], seed=7)[3] for _ in range(2)]
+    assert [r["p_at_k_strict"]["2"] for r in runs] == [runs[0]["p_at_k_strict"]["2"]] * 2
 
 
 def test_constant_policy_top_k_is_lexicographic_without_expanding_every_prefix():

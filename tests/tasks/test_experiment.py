@@ -120,3 +120,17 @@ def test_each_fold_is_seeded_by_seed_plus_its_index(tmp_path, fake_cfg):
     experiment_fakes.SEEDS.clear()
     run(fake_cfg(tmp_path, "intra", "seed=7"))
     assert experiment_fakes.SEEDS == [7, 8, 9, 10]
+
+
+def test_relative_threshold_plans_every_policy_by_its_share_of_the_states_best(tmp_path, fake_cfg):
+    """At λ = 0.97 the near-oracle's valid steps (0.9 ± 0.1) mostly fail the paper's rule; as a
+    share of the state's best, the best step of every state passes. The `never` floor still
+    retrieves nothing."""
+    empty = {}
+    for rule in ("absolute", "relative"):
+        run(fake_cfg(tmp_path / rule, "intra", f"threshold={rule}", "task.threshold=0.97"))
+        results = json.loads((tmp_path / rule / "results.json").read_text())
+        empty[rule] = sum(e["no_sequence"] for e in results["per_size"].values())
+        never = results["baselines"]["never"]["per_size"].values()
+        assert all(e["p_at_k_strict"]["1"]["mean"] == 0.0 for e in never)
+    assert empty["relative"] < empty["absolute"]

@@ -1,0 +1,59 @@
+"""Where Algorithm 1 cuts a state's branches: at the paper's absolute λ, or relative to the
+state's best score (`threshold=`, docs/planning.md).
+
+The paper opens a branch for every unplaced part scoring at least λ (Algorithm 1). Scores whose
+scale drifts with the assembly's size (docs/size-generalisation.md) then fall below λ on every
+valid step of a large assembly and the planner retrieves nothing, though the valid parts still
+score highest. The relative rule opens a branch for every part scoring at least λ times the best
+unplaced part's score in that state, so it reads the ranking, not the scale. It is applied as a
+transformation of the scores (each part's share of the state's best), so every metric of
+docs/metrics.md, the λ sweep included, measures the planner that thresholds those shares.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from grace.planning.sequences import Scorer, unplaced
+
+
+@dataclass(frozen=True)
+class AbsoluteThreshold:
+    """`threshold=absolute` (the paper's, the default): a part opens a branch iff its score is at
+    least λ; the scores are planned as they are."""
+
+    def __call__(self, scorer: Scorer) -> Scorer:
+        return scorer
+
+
+def relative_scores(scores: np.ndarray, states: np.ndarray, floor: float) -> np.ndarray:
+    """Each unplaced part's score divided by the best unplaced part's of its state, where the
+    part scores at least `floor` and the best above 0; elsewhere (placed parts, parts below the
+    floor) min(score, 0), below every λ > 0. A share ≥ λ is a score ≥ λ × the state's best."""
+    scores = np.asarray(scores, dtype=np.float64)
+    free = unplaced(states, scores.shape[1])
+    best = np.where(free, scores, -np.inf).max(axis=1, keepdims=True)
+    kept = free & (scores >= floor) & (best > 0.0)
+    share = np.divide(scores, best, out=np.zeros_like(scores), where=kept)
+    return np.where(kept, share, np.minimum(scores, 0.0))
+
+
+@dataclass(frozen=True)
+class RelativeThreshold:
+    """`threshold=relative` (not in the paper): a part opens a branch iff its score is at least
+    λ times the best score of the state's unplaced parts, and at least `floor`.
+
+    The floor keeps what the absolute rule says of a state where every part scores low: no
+    branch, so a dead end stops the planner and an infeasible assembly can still retrieve
+    nothing. Scores uniformly scaled by any factor plan the same (above the floor).
+    """
+
+    floor: float = 0.05
+
+    def __call__(self, scorer: Scorer) -> Scorer:
+        def relative(assembly, states):
+            return relative_scores(scorer(assembly, states), np.asarray(states), self.floor)
+
+        return relative
