@@ -128,13 +128,16 @@ def branch_tests(tree: ast.AST) -> list[ast.expr]:
 def config_string_branches(tree: ast.AST) -> list[tuple[int, str]]:
     """(line, string) of every branch on a string that a config can hold. A string that only
     looks a key up (`row["val_step_auc"]`, `row.get("val_step_auc")`) is no branch on it: metric
-    names are config strings too (`monitor.metric`, `tune.metric`)."""
+    names are config strings too (`monitor.metric`, `tune.metric`), nor is one asked for
+    membership (`"brute_force" in runs`)."""
     found = []
     for test in branch_tests(tree):
         keys = set()
         for node in ast.walk(test):
             if isinstance(node, ast.Subscript):
                 keys.add(id(node.slice))
+            elif isinstance(node, ast.Compare) and isinstance(node.ops[0], (ast.In, ast.NotIn)):
+                keys.add(id(node.left))
             elif (
                 isinstance(node, ast.Call)
                 and isinstance(node.func, ast.Attribute)
@@ -159,6 +162,8 @@ def test_the_rule_sees_a_branch_on_a_config_string():
     assert config_string_branches(ast.parse("if line == 'begin Pieces':\n    pass\n")) == []
     lookups = "x = [r for r in rows if r.get('orders')]\ny = 1 if r['fast'] == 'pyg' else 2\n"
     assert config_string_branches(ast.parse(lookups)) == [(2, "pyg")]
+    member = "if 'orders' in runs:\n    pass\nif impl in ('pyg',):\n    pass\n"
+    assert config_string_branches(ast.parse(member)) == [(3, "pyg")]
 
 
 @pytest.mark.parametrize(

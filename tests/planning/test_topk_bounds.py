@@ -39,9 +39,9 @@ def test_ties_go_to_the_tie_order():
     n = 5
     scored = score_states(lambda a, s: np.full((len(s), n), 0.5), line_assembly(n))
     bounds = completion_bounds(scored, 0.0)
-    assert top_k(table_scores(scored), n, 1, 0.0, bounds)[0].sequence == (0, 1, 2, 3, 4)
+    assert top_k(table_scores(scored), n, 1, 0.0, bounds)[0][0].sequence == (0, 1, 2, 3, 4)
     ranks = np.array([3, 0, 4, 1, 2])  # part 1 first, then 3, 4, 0, 2
-    best = top_k(table_scores(scored), n, 2, 0.0, bounds, tie_order=ranks)
+    best, _ = top_k(table_scores(scored), n, 2, 0.0, bounds, tie_order=ranks)
     assert [r.sequence for r in best] == [(1, 3, 4, 0, 2), (1, 3, 4, 2, 0)]
 
 
