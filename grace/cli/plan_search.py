@@ -83,6 +83,20 @@ def verified_json(
         )
     ]
     refused = [s for s in record.steps if s.kind == "refused"]
+    proof = {}
+    if record.unplaceable is not None:
+        part = record.unplaceable
+        proof = {
+            "proof": {
+                "part": part,
+                "name": names[part],
+                "reason": (
+                    f"no order can place part {part} ({names[part]}): the precedences every "
+                    "order must keep leave it without a usable option, or force it before "
+                    "itself (docs/planning.md, 'Infeasibility without a search')"
+                ),
+            }
+        }
     return {
         **sources,
         "planner": asdict(planner),  # StrEnum values serialise as their names
@@ -107,6 +121,7 @@ def verified_json(
                 for s in refused[:REFUSALS_LISTED]
             ],
         },
+        **proof,
     }
 
 

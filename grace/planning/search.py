@@ -114,7 +114,9 @@ class SearchResult:
     checks and the cell queries they trigger); `expanded`: states scored (forward passes);
     `verified`: the verified part of the state DAG (`placeable`: steps the checks accepted,
     `completable`: those on verified orders); `exhausted`: the search ran out of steps to try,
-    so `verified` holds every order.
+    so `verified` holds every order; `unplaceable`: the part that the orders every order must
+    keep leave without a usable option (grace/planning/precedence.py), when that proved the
+    assembly infeasible before any step check.
     """
 
     outcome: Outcome
@@ -127,6 +129,7 @@ class SearchResult:
     verified: GroundTruth
     exhausted: bool
     events: list[SearchEvent] = field(default_factory=list)
+    unplaceable: int | None = None
 
 
 class _Node:
@@ -473,7 +476,8 @@ class _Search:
 
     def run(self) -> SearchResult:
         start = time.perf_counter()
-        if self.refute is not None and self.refute() is not None:
+        unplaceable = self.refute() if self.refute is not None else None
+        if unplaceable is not None:
             # proved infeasible without a step check, and without scoring a state
             root = self.nodes[self.start_state] = _Node(
                 self.start_state, np.zeros(self.n), [], [], 0
@@ -528,6 +532,7 @@ class _Search:
             verified=self._verified(),
             exhausted=exhausted,
             events=self.events,
+            unplaceable=unplaceable,
         )
 
     # Results ---------------------------------------------------------------------------------

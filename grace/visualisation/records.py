@@ -258,6 +258,9 @@ class SearchRecord:
     steps: list[SearchStep]
     events: int
     """All events of the search; `steps` holds the first ones only (`max_events`)."""
+    unplaceable: int | None = None
+    """The part no order can place, when that proved the assembly infeasible before any step
+    check (SearchResult.unplaceable)."""
 
 
 def search_record(
@@ -305,4 +308,5 @@ def search_record(
         expanded=result.expanded,
         steps=steps,
         events=len(result.events),
+        unplaceable=result.unplaceable,
     )

@@ -162,6 +162,11 @@ def test_plan_with_a_model_fitted_to_a_hand_made_assembly(cfg_factory, tmp_path)
     (rails / "assembly.spec").write_text(RAILS)
     result, cfg = plan(cfg_factory, train, rails)
     assert result["outcome"] == "infeasible" and result["orders"] == []
+    # Proved before any step check: each stem's options need the other one out of the way.
+    assert result["checks"] == 0 and result["refused"]["count"] == 0
+    assert result["proof"]["name"] in {"left", "right"} and result["proof"]["reason"]
+    result, _ = plan(cfg_factory, train, rails, "planner.precedence=false")
+    assert result["outcome"] == "infeasible" and "proof" not in result
     assert result["refused"]["count"] >= 1 and result["refused"]["first"][0]["reason"]
 
     # Bad inputs: one UserError line each.
