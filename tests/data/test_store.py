@@ -111,6 +111,7 @@ def test_distinct_data_set_holds_no_copy_of_the_other(fake_cfg):
     assert load_generated(cfg) == distinct
 
 
+@pytest.mark.slow  # draws ten times a size
 def test_distinct_data_set_stops_when_the_other_holds_every_layout(fake_cfg):
     with pytest.raises(UserError, match="distinct_from"):  # 40 A1 draws cover all 8 layouts
         load_generated(fake_cfg("dataset.seed=1", "dataset.distinct_from=0", sizes="{1: 40}"))

@@ -44,7 +44,7 @@ def check_schema(results: dict) -> None:
                 assert not math.isnan(stat["mean"])
 
 
-def test_intra_experiment_writes_results(tmp_path, fake_cfg):
+def test_intra_experiment_writes_results_floors_failures_and_feasibility(tmp_path, fake_cfg):
     experiment_fakes.FITS.clear()
     objective = run(fake_cfg(tmp_path, "intra"))
     results = json.loads((tmp_path / "results.json").read_text())
@@ -67,6 +67,25 @@ def test_intra_experiment_writes_results(tmp_path, fake_cfg):
     assert "Complete Sequence AUC" in md and "| random |" in md
     assert (tmp_path / "pr_curves.png").stat().st_size > 0
     assert (tmp_path / "p_at_k.png").stat().st_size > 0
+    # strict figures beside the paper's, the floors, failures and feasibility
+    results = json.loads((tmp_path / "results.json").read_text())
+    assert set(results["baselines"]) == {"random", "constant", "never"}
+    for size, entry in results["per_size"].items():
+        assert entry["p_at_k_strict"]["1"]["mean"] <= entry["p_at_k"]["1"]["mean"]
+        assert "best_sequence" in entry["feasibility"]["schemes"]
+        never = results["baselines"]["never"]["per_size"][size]
+        assert never["seq_auc"]["mean"] == pytest.approx(0.5)
+        assert never["p_at_k_strict"]["1"]["mean"] == 0.0 and never["p_at_k"]["1"]["mean"] == 1.0
+    assert results["collapsed_folds"] == [] and len(results["fold_health"]) == 4
+    assert results["fold_health"][0]["training"] == "no training log found"  # the fake fit
+    failures = json.loads((tmp_path / "failures.json").read_text())
+    assert set(failures["per_size"]) == set(results["per_size"])
+    feasibility = json.loads((tmp_path / "feasibility.json").read_text())
+    assert feasibility["max_fpr"] == 0.05
+    for name in ("failures.png", "feasibility_roc.png"):
+        assert (tmp_path / name).read_bytes()[:4] == b"\x89PNG"
+    md = (tmp_path / "results.md").read_text()
+    assert "## Feasibility (GRACE)" in md and "## Folds" in md
 
 
 @pytest.mark.slow  # a fast twin covers the behaviour; this one is end to end
@@ -122,6 +141,7 @@ def test_each_fold_is_seeded_by_seed_plus_its_index(tmp_path, fake_cfg):
     assert experiment_fakes.SEEDS == [7, 8, 9, 10]
 
 
+@pytest.mark.slow  # two experiments; grace/planning/thresholds.py has fast tests
 def test_relative_threshold_plans_every_policy_by_its_share_of_the_states_best(tmp_path, fake_cfg):
     """At λ = 0.97 the near-oracle's valid steps (0.9 ± 0.1) mostly fail the paper's rule; as a
     share of the state's best, the best step of every state passes. The `never` floor still

@@ -4,6 +4,7 @@ selection; its data generated through the data layer, its runs gathered into Tab
 import json
 
 import numpy as np
+import pytest
 from omegaconf import OmegaConf, open_dict
 
 from grace.cli.checks import protocol_split
@@ -43,6 +44,7 @@ def test_upward_folds_keep_test_sizes_out_of_training_and_validation(cfg_factory
     assert {s: (sizes == s).sum() for s in (8, 10, 12)} == {8: 100, 10: 100, 12: 100}
 
 
+@pytest.mark.slow  # end to end; the split has its fast test above
 def test_upward_runs_end_to_end_on_tiny_sizes(cfg_factory, fake_simulator, tmp_path):
     cfg = _upward_cfg(cfg_factory, fake_simulator)
     run(cfg)
