@@ -131,7 +131,8 @@ def check_shards(cfg: DictConfig) -> None:
 def check_model_inputs(cfg: DictConfig) -> None:
     """A task that reads a kept model (`task.ckpt`) gets a checkpoint beside a readable config,
     and one that plans an assembly (`task.assembly`) gets an assembly of at least MIN_PARTS
-    parts that the cell the model was trained in can hold (simulator.cell.max_parts)."""
+    parts that the cell it is planned in can hold (simulator.cell.max_parts: of the kept
+    config, or of this one with `task.kept_world=false`)."""
     task = cfg.task
     if "ckpt" not in task:
         return
@@ -143,7 +144,8 @@ def check_model_inputs(cfg: DictConfig) -> None:
     if task.get("assembly") is None:  # a task without one (given empty: refused above)
         return
     assembly, _ = read_assembly(task.assembly)
-    n, slots = assembly.n_parts, OmegaConf.select(kept, "simulator.cell.max_parts")
+    world = kept if task.get("kept_world", True) else cfg
+    n, slots = assembly.n_parts, OmegaConf.select(world, "simulator.cell.max_parts")
     if n < MIN_PARTS:
         raise UserError(
             f"assembly={task.assembly}: {n} part; planning needs {MIN_PARTS} or more (one part "
@@ -151,8 +153,8 @@ def check_model_inputs(cfg: DictConfig) -> None:
         )
     if isinstance(slots, int) and n > slots:
         raise UserError(
-            f"assembly={task.assembly}: {n} parts, but the cell the model of {ckpt} was trained "
-            f"in has {slots} part slots (simulator.cell.max_parts, docs/world.md); fix: an "
-            f"assembly of at most {slots} parts, or a model trained with "
-            f"simulator.cell.max_parts={n}"
+            f"assembly={task.assembly}: {n} parts, but the cell it is planned in has {slots} "
+            f"part slots (simulator.cell.max_parts, docs/world.md); fix: an assembly of at most "
+            f"{slots} parts, or task.kept_world=false simulator=large_frames (up to 50 parts, "
+            "docs/planning.md)"
         )

@@ -49,6 +49,7 @@ class PlanSettings(TaskSettings):
     assembly: str | None = MISSING  # a raw assembly folder or an assembly.spec file
     fold: int = 0  # which fold's model of an experiment run folder
     recording: bool = False  # plan.rrd too, written after plan.json and the printed answer
+    kept_world: bool = True  # the model's training cell; false: `simulator=` (e.g. large_frames)
 
 
 def plan_json(record: SequenceRecord, sources: dict[str, Any]) -> dict[str, Any]:
@@ -86,7 +87,7 @@ def run(cfg: DictConfig) -> float | None:
     ckpt = find_checkpoint(cfg.task.ckpt, int(cfg.task.fold))
     assembly, truth = read_assembly(cfg.task.assembly)
     module, kept = load_model(ckpt)
-    simulator = instantiate(kept.simulator)
+    simulator = instantiate(kept.simulator if cfg.task.kept_world else cfg.simulator)
     planner = instantiate(cfg.planner)
     start = time.perf_counter()
     load_seconds = start - begin

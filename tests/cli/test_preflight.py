@@ -25,7 +25,9 @@ from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.utils import instantiate
 
 import grace.__main__ as entry
+from grace.cli.checks import check_model_inputs
 from grace.data.raw_format import export_raw
+from grace.errors import UserError
 
 ROOT = Path(__file__).resolve().parents[2]
 TINY = "dataset.sizes={3: 4, 4: 4}"  # no shell: no quotes
@@ -305,8 +307,18 @@ PROBE = {
     ),
     "more parts than the cell's slots": (
         ("task=plan", "planner=topk", "ckpt={run}", "assembly={many}"),
-        r"assembly={many}: 21 parts, but the cell .* has 20 part slots .*; fix: an assembly of at "
-        r"most 20 parts, or a model trained with simulator.cell.max_parts=21$",
+        r"assembly={many}: 21 parts, but the cell it is planned in has 20 part slots .*; fix: an "
+        r"assembly of at most 20 parts, or task.kept_world=false simulator=large_frames .*\)$",
+    ),
+    "more parts than the chosen cell's slots": (
+        (
+            "task=plan",
+            "ckpt={run}",
+            "assembly={many}",
+            "task.kept_world=false",
+            "simulator.cell.max_parts=20",
+        ),
+        r"assembly={many}: 21 parts, but the cell it is planned in has 20 part slots",
     ),
     "kept config not YAML": (
         ("task=plan", "ckpt={broken}", "assembly={raw}/a3"),
@@ -404,3 +416,13 @@ def test_the_resume_hint_pastes_back_as_the_run_folder(capsys, folder):
     (word,) = shlex.split(hint)
     (override,) = OverridesParser.create().parse_overrides([word])
     assert override.key_or_group == "paths.output_dir" and override.value() == folder
+
+
+def test_a_large_frame_is_planned_in_the_cell_the_command_chooses(cfg_factory, plan_inputs):
+    """21 parts exceed the kept cell's 20 slots; with task.kept_world=false the composed
+    simulator=large_frames (50 slots) holds them."""
+    given = (f"ckpt={plan_inputs['{run}']}", f"assembly={plan_inputs['{many}']}")
+    with pytest.raises(UserError, match="21 parts, but the cell it is planned in has 20"):
+        check_model_inputs(cfg_factory("task=plan", *given, "simulator=large_frames"))
+    chosen = cfg_factory("task=plan", *given, "task.kept_world=false", "simulator=large_frames")
+    check_model_inputs(chosen)
