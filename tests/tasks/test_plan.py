@@ -135,27 +135,6 @@ def test_plan_with_a_model_fitted_to_a_hand_made_assembly(cfg_factory, tmp_path)
         summary.entities
     )
     assert any("placed" in t for _, _, t in text_entries(rrd, "/search/log"))
-    # From the command line, the same answer without the libraries planning does not need,
-    # each seconds to import (Lightning, PyG, torch.compile's stack, rerun, matplotlib), and
-    # without plan.rrd unless asked for.
-    out = tmp_path / "cli"
-    done = subprocess.run(
-        [sys.executable, "-X", "importtime", "-m", "grace", "task=plan", f"ckpt={train}",
-         f"assembly={asm}", "planner.k=2", f"paths.output_dir={out}",
-         f"paths.data_dir={tmp_path / 'data'}"],
-        cwd=tmp_path, capture_output=True, text=True, check=False,
-    )  # fmt: skip
-    assert done.returncode == 0, done.stderr[-2000:]
-    imported = {
-        line.split("|")[-1].strip() for line in done.stderr.splitlines() if "import time:" in line
-    }
-    heavy = {"lightning", "torch_geometric", "torchmetrics", "rerun", "matplotlib", "sklearn"}
-    assert not {m for m in imported if m.split(".")[0] in heavy}
-    assert "torch._dynamo" not in imported and "torch" in imported
-    cli = json.loads((out / "plan.json").read_text())
-    assert [o["sequence"] for o in cli["orders"]] == [o["sequence"] for o in result["orders"]]
-    assert not (out / "plan.rrd").exists() and "plan.rrd" not in done.stdout
-
     # Two stems 8 mm apart: whichever comes second cannot be gripped. Infeasible, and said so.
     rails = tmp_path / "rails"
     rails.mkdir()
@@ -203,3 +182,30 @@ def test_the_command_prints_one_line_and_exits_non_zero(tmp_path):
     assert result.returncode != 0
     errors = [line for line in result.stderr.splitlines() if line.startswith("grace: error:")]
     assert len(errors) == 1 and "ckpt=" in errors[0] and "Traceback" not in result.stderr
+
+
+@pytest.mark.slow  # a second fit and a whole process start-up (seconds of imports)
+def test_plan_from_the_command_line_imports_only_what_planning_needs(cfg_factory, tmp_path):
+    """The same answer as in this process, without the libraries planning does not need, each
+    seconds to import (Lightning, PyG, torch.compile's stack, rerun, matplotlib), and without
+    plan.rrd unless asked for."""
+    fit(cfg_factory, tmp_path)
+    train, asm = tmp_path / "train", tmp_path / "asm"
+    result, _ = plan(cfg_factory, train, asm, "planner.k=2")
+    out = tmp_path / "cli"
+    done = subprocess.run(
+        [sys.executable, "-X", "importtime", "-m", "grace", "task=plan", f"ckpt={train}",
+         f"assembly={asm}", "planner.k=2", f"paths.output_dir={out}",
+         f"paths.data_dir={tmp_path / 'data'}"],
+        cwd=tmp_path, capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr[-2000:]
+    imported = {
+        line.split("|")[-1].strip() for line in done.stderr.splitlines() if "import time:" in line
+    }
+    heavy = {"lightning", "torch_geometric", "torchmetrics", "rerun", "matplotlib", "sklearn"}
+    assert not {m for m in imported if m.split(".")[0] in heavy}
+    assert "torch._dynamo" not in imported and "torch" in imported
+    cli = json.loads((out / "plan.json").read_text())
+    assert [o["sequence"] for o in cli["orders"]] == [o["sequence"] for o in result["orders"]]
+    assert not (out / "plan.rrd").exists() and "plan.rrd" not in done.stdout
