@@ -175,6 +175,17 @@ def bracket_frame() -> LabelledAssembly:
     return LabelledAssembly(assembly, truth)
 
 
+def connected(touch: np.ndarray) -> bool:
+    """Whether the contact graph `touch` (N×N booleans, e.g. joints.touching) is connected."""
+    seen, todo = {0}, [0]
+    while todo:
+        for j in np.flatnonzero(touch[todo.pop()]):
+            if int(j) not in seen:
+                seen.add(int(j))
+                todo.append(int(j))
+    return len(seen) == len(touch)
+
+
 @pytest.fixture
 def samples(fake_simulator) -> list[LabelledAssembly]:
     """The bracket frame, five feasible rows of 3–6 parts and one infeasible row."""

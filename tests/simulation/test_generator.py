@@ -1,5 +1,6 @@
 import numpy as np
 import pytest
+from grace_tests_conftest import connected
 
 from grace.errors import UserError
 from grace.simulation.generator import StructureGenerator
@@ -23,16 +24,6 @@ def batch(generator):
     return [generator.generate(n, rng) for n in (3, 5, 7, 10, 16) for _ in range(12)]
 
 
-def _connected(touch: np.ndarray) -> bool:
-    seen, todo = {0}, [0]
-    while todo:
-        for j in np.flatnonzero(touch[todo.pop()]):
-            if int(j) not in seen:
-                seen.add(int(j))
-                todo.append(int(j))
-    return len(seen) == len(touch)
-
-
 def test_same_seed_same_assembly(generator):
     a = generator.generate(7, np.random.default_rng(3))
     assert a == generator.generate(7, np.random.default_rng(3))
@@ -47,7 +38,7 @@ def test_frames_are_valid_connected_canonical_and_fit(batch, sim_cfg):
         assert not any(
             parts_overlap(a, b, 0.5) for i, a in enumerate(parts) for b in parts[i + 1 :]
         )
-        assert _connected(touching(asm))
+        assert connected(touching(asm))
         boxes = np.array([b for p in parts for b in p.footprint_boxes()])
         lo, hi = boxes[:, :2].min(axis=0), boxes[:, 2:].max(axis=0)
         assert hi[0] - lo[0] <= width and hi[1] - lo[1] <= depth

@@ -6,6 +6,7 @@ the reach along the long table that fixed pedestals do not."""
 
 import numpy as np
 import pytest
+from grace_tests_conftest import connected
 from hydra.utils import instantiate
 
 from grace.domain.assembly import Assembly, Part, PartType, planar_pose
@@ -39,14 +40,7 @@ def test_a_sectioned_frame_is_connected_by_t_slot_joints_within_its_area(large_c
     again = generator.generate(40, np.random.default_rng(5), lambda *_: True)
     assert frame == again  # deterministic per seed, whatever the check costs
     assert frame.n_parts == 40
-    touch = touching(frame)
-    seen, todo = {0}, [0]
-    while todo:
-        for j in np.flatnonzero(touch[todo.pop()]):
-            if int(j) not in seen:
-                seen.add(int(j))
-                todo.append(int(j))
-    assert len(seen) == 40
+    assert connected(touching(frame))
     parts = frame.parts
     assert not any(parts_overlap(a, b, 0.5) for i, a in enumerate(parts) for b in parts[i + 1 :])
     profiles = [p for p in parts if p.type.is_profile]
