@@ -205,6 +205,7 @@ RANGES: dict[str, Range] = {
     "task.recording.top_k": at_least(1, "sequences listed per recorded assembly"),
     "task.recording.truth_orders": at_least(0, "ground-truth orders listed per assembly"),
     "task.fold": FOLD,
+    "task.threads": at_least(1, "torch threads of a planning task; at most the machine's cores"),
     "task.data_seed": SEED,
     "task.train_size": SIZE,
     "task.infer_size": SIZE,

@@ -50,6 +50,7 @@ class PlanSettings(TaskSettings):
     fold: int = 0  # which fold's model of an experiment run folder
     recording: bool = False  # plan.rrd too, written after plan.json and the printed answer
     kept_world: bool = True  # the model's training cell; false: `simulator=` (e.g. large_frames)
+    threads: int = 1  # the root `threads` follows it unless given
 
 
 def plan_json(record: SequenceRecord, sources: dict[str, Any]) -> dict[str, Any]:

@@ -65,6 +65,7 @@ class SearchBenchSettings(TaskSettings):
     large_sizes: Any = None  # size → unlabelled assemblies (no brute force)
     default_large_sizes: Any = None
     large_feasible: bool = False  # draw them feasible (grace/planning/feasible_frames.py)
+    threads: int = 1  # the root `threads` follows it unless given
     planners: list[str] = MISSING
     large_planners: list[str] = MISSING
     budgets: list[int] = MISSING  # multiples of N
