@@ -11,9 +11,9 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
-from typing import Any
+from typing import Any, NotRequired
 
-from typing_extensions import NotRequired, TypedDict  # pydantic needs it before Python 3.12
+from typing_extensions import TypedDict  # pydantic needs it before Python 3.12
 
 SCHEMA_FILE = Path(__file__).resolve().parents[2] / "docs" / "plan-schema.json"
 _STRICT = {"extra": "forbid"}

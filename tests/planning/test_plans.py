@@ -102,5 +102,5 @@ def test_an_unreadable_plan_json_is_one_line(tmp_path):
     with pytest.raises(UserError, match=r"plan\.json: field 'planner' missing; fix: "):
         read_plan(bad)
     bad.write_text("{")
-    with pytest.raises(UserError, match="not a readable plan.json"):
+    with pytest.raises(UserError, match=r"not a readable plan\.json"):
         read_plan(bad)
