@@ -43,21 +43,30 @@ rest), so an order's probability is the product of its steps' scores in both dir
 from __future__ import annotations
 
 import heapq
+import logging
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from enum import StrEnum
 
 import numpy as np
 
 from grace.domain.assembly import Assembly, full_mask, mask_to_parts
 from grace.domain.orders import GroundTruth
+from grace.planning.cell_steps import SimulatorSteps
 from grace.planning.fixation_prior import FixationPrior
+from grace.planning.plans import Plan, search_plan, search_steps
 from grace.planning.precedence import refuted
 from grace.planning.sequences import Scorer
 from grace.planning.step_checks import BlockerSteps, StepOracle, blocking_set, brute_force
-from grace.planning.topk import Ranked, StateScores, lazy_scores
+from grace.planning.topk import FULL_TABLE_MAX_PARTS, Ranked, StateScores, lazy_scores
+
+log = logging.getLogger(__name__)
+
+RECORDED_EVENTS = 2000
+"""Search events a plan keeps with their reasons (plan.rrd draws them; plan.json counts the
+refusals among them)."""
 
 Refutation = Callable[[], int | None]
 """`refute()`: a part no order can place, proved without a search (grace/planning/
@@ -200,8 +209,6 @@ class VerifiedSearch:
     max_checks: int | None = None
     max_seconds: float | None = None
 
-    verify = True  # the task layer lists these orders as verified (the top-k listing does not)
-
     def search(
         self,
         scores: StateScores,
@@ -232,6 +239,31 @@ class VerifiedSearch:
             exhaust = lambda: brute_force(oracle)  # noqa: E731
         scores = lazy_scores if self.direction == Direction.forward else removal_scores
         return self.search(scores(scorer, assembly), oracle, prior, refute, exhaust)
+
+    def checked_plan(
+        self,
+        scorer: Scorer,
+        assembly: Assembly,
+        steps: SimulatorSteps,
+        truth: GroundTruth | None = None,
+    ) -> Plan:
+        """Search `assembly` (`plan`) with `steps`' simulator checks; the plan lists the verified
+        orders and the first `RECORDED_EVENTS` events, each refusal with its reason."""
+        budget = self.max_checks is not None or self.max_seconds is not None
+        if assembly.n_parts > FULL_TABLE_MAX_PARTS and not budget:
+            log.warning(
+                "%d parts and no budget: the search may run long before it proves the assembly "
+                "infeasible; set planner.max_seconds or planner.max_checks",
+                assembly.n_parts,
+            )
+        result = self.plan(scorer, assembly, steps)
+        start = time.perf_counter()
+        events = search_steps(result, steps.checker, RECORDED_EVENTS)
+        settings = {"name": "verified", **asdict(self)}  # StrEnum values serialise as names
+        plan = search_plan(result, steps.checker, truth, settings, 0.0, events)
+        return replace(
+            plan, search=replace(plan.search, record_seconds=time.perf_counter() - start)
+        )
 
 
 class _Search:

@@ -9,16 +9,22 @@ lazily and once each, so for N ≥ 9 only the states near the best sequences are
 from __future__ import annotations
 
 import heapq
+import logging
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
 from grace.domain.assembly import Assembly, full_mask
+from grace.domain.orders import GroundTruth
+from grace.planning.cell_steps import SimulatorSteps
 from grace.planning.counting import bottleneck, state_levels
+from grace.planning.plans import Plan, listing_plan
 from grace.planning.sequences import ScoredStates, Scorer, score_states
+
+log = logging.getLogger(__name__)
 
 StateScores = Callable[[int], np.ndarray]
 """`scores(state)`: the N part scores of one state bitmask."""
@@ -150,7 +156,27 @@ class TopKListing:
     max_expansions: int | None = None
     max_seconds: float | None = None
 
-    verify = False  # the task layer checks the listed sequences afterwards
+    def checked_plan(
+        self,
+        scorer: Scorer,
+        assembly: Assembly,
+        steps: SimulatorSteps,
+        truth: GroundTruth | None = None,
+    ) -> Plan:
+        """List the sequences, then check each step by step in `steps`' simulator (the listing
+        trusts the scores; the checks tell which sequences the robot can execute)."""
+        if assembly.n_parts > FULL_TABLE_MAX_PARTS:
+            log.warning(
+                "%d parts: the top-k listing scores states lazily without completion bounds and "
+                "stops at planner.max_expansions=%s, planner.max_seconds=%s; planner=verified is "
+                "the bounded planner", assembly.n_parts, self.max_expansions, self.max_seconds,
+            )  # fmt: skip
+        start = time.perf_counter()
+        ranking = rank_sequences(
+            scorer, assembly, self.k, self.threshold, self.max_expansions, self.max_seconds
+        )
+        plan = listing_plan(ranking, steps.checker, truth, {"name": "topk", **asdict(self)}, 0.0)
+        return replace(plan, seconds=time.perf_counter() - start)
 
 
 FULL_TABLE_MAX_PARTS = 14

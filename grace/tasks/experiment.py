@@ -41,11 +41,12 @@ from grace.evaluation.results import (
     RunInfo,
     StageSeconds,
 )
+from grace.planning.plan_views import PlanView, fold_views
 from grace.planning.sequences import Scorer
 from grace.visualisation.analysis import draw_analysis
 from grace.visualisation.plots import p_at_k_bars, pr_curves
 from grace.visualisation.recording import write_recording
-from grace.visualisation.records import RecordingSettings, SequenceRecord, fold_records
+from grace.visualisation.records import RecordingSettings
 
 log = logging.getLogger(__name__)
 
@@ -85,7 +86,7 @@ class FoldResult:
     train_s: float
     evaluate_s: float
     health: dict
-    records: list[SequenceRecord]
+    records: list[PlanView]
 
 
 def run_fold(
@@ -138,7 +139,10 @@ def run_fold(
     records = []
     if settings.per_size > 0:  # sequences.rrd (docs/recordings.md)
         simulator = instantiate(cfg.simulator)
-        records = fold_records(policies["GRACE"], test, simulator, settings, fold.index)
+        records = fold_views(
+            policies["GRACE"], test, simulator, settings.per_size, settings.top_k,
+            settings.truth_orders, fold.index,
+        )  # fmt: skip
     evaluate_s = time.perf_counter() - tick
     progress.done(train_s, evaluate_s)
     return FoldResult(metrics, train_s, evaluate_s, {"fold": fold.index, **health}, records)

@@ -47,7 +47,7 @@ from grace.model.kept import find_checkpoint
 from grace.model.scoring import make_scorer
 from grace.planning.cell_steps import SimulatorSteps
 from grace.planning.feasible_frames import FeasibleFrames
-from grace.planning.search import Outcome
+from grace.planning.search import Outcome, VerifiedSearch
 from grace.visualisation.search_plots import search_bench_plot
 
 log = logging.getLogger(__name__)
@@ -79,7 +79,7 @@ def run(cfg: DictConfig) -> float | None:
     out_dir = Path(cfg.paths.output_dir)
     task = cfg.task
     search = instantiate(cfg.planner)
-    if not getattr(search, "verify", False):
+    if not isinstance(search, VerifiedSearch):
         raise UserError(
             f"planner={OmegaConf.select(cfg, 'planner._target_')} is not a verified search; "
             "fix: task=search_bench measures planner=verified (drop planner=topk)"
@@ -99,7 +99,7 @@ def run(cfg: DictConfig) -> float | None:
     planners = planner_set(names, bench, scorer, heuristic, int(cfg.seed), expansions)
     oracle = lambda assembly: SimulatorSteps(simulator, assembly)  # noqa: E731
     samples = source.load()
-    gc.freeze()  # the loaded objects stay out of full collections (grace/cli/plan_search.py)
+    gc.freeze()  # the loaded objects stay out of full collections (grace/tasks/plan.py)
     begin = time.perf_counter()
     records: list[AssemblyRuns] = []
     disagreements = []

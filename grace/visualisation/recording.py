@@ -25,9 +25,9 @@ import rerun.blueprint as rrb
 from rerun.chunk import RrdReader
 
 from grace.domain.assembly import Assembly, mask_to_parts
+from grace.planning.plan_views import PlanView
 from grace.simulation.clearance import part_boxes
 from grace.simulation.robot_cell import CellPose
-from grace.visualisation.records import SequenceRecord
 
 APPLICATION_ID = "grace"
 TIMELINE = "step"
@@ -42,7 +42,7 @@ _TOOL = (240, 200, 60, 255)
 _ARM = (235, 120, 30, 255)
 
 
-def entity_root(record: SequenceRecord, index: int) -> str:
+def entity_root(record: PlanView, index: int) -> str:
     """`/<group>/<assembly name>` (the index when the assembly has no name)."""
     name = record.assembly.name or f"assembly_{index}"
     return f"/{record.group}/{rr.escape_entity_path_part(name)}"
@@ -84,7 +84,7 @@ def log_arms(
         )
 
 
-def _sequences_markdown(record: SequenceRecord) -> str:
+def _sequences_markdown(record: PlanView) -> str:
     lines = [f"## {record.assembly.name or 'assembly'} ({record.assembly.n_parts} parts)", ""]
     if record.feasibility is not None:
         lines.append(f"Feasibility score (bottleneck): {record.feasibility:.4f}")
@@ -96,25 +96,26 @@ def _sequences_markdown(record: SequenceRecord) -> str:
         "|---|---|---|---|---|",
     ]
     failures = {f.rank: f for f in record.failures}
-    for rank, (seq, check) in enumerate(zip(record.ranked, record.checks, strict=True), 1):
-        sim = "feasible" if check.feasible else f"step {check.failing_step}: {check.failure.rule}"
-        fail = failures.get(rank)
+    for seq in record.plan.orders:
+        check = seq.simulator
+        sim = "feasible" if check.feasible else f"step {check.failing_step}: {check.rule}"
+        fail = failures.get(seq.rank)
         shown = f"step {fail.step} (part {fail.part}): {fail.reason}" if fail else "-"
         order = " ".join(str(p) for p in seq.sequence)
-        lines.append(f"| {rank} | {order} | {seq.probability:.4g} | {sim} | {shown} |")
+        lines.append(f"| {seq.rank} | {order} | {seq.probability:.4g} | {sim} | {shown} |")
     if record.truth_orders:
         lines += ["", "Ground-truth orders (first ones):", ""]
         lines += [f"- {' '.join(str(p) for p in o)}" for o in record.truth_orders]
     return "\n".join(lines)
 
 
-def _step_markdown(record: SequenceRecord, step: int) -> str:
+def _step_markdown(record: PlanView, step: int) -> str:
     view = record.steps[step]
     score = view.scores[view.part]
     lines = [f"step {step}: the best sequence places part {view.part} (score {score:.3f})"]
     lines.append(f"placed before: {mask_to_parts(view.placed) or 'nothing'}")
-    for rank, seq in enumerate(record.ranked, 1):
-        lines.append(f"- rank {rank} places part {seq.sequence[step]}")
+    for seq in record.plan.orders:
+        lines.append(f"- rank {seq.rank} places part {seq.sequence[step]}")
     if view.truth_next is not None:
         lines.append(
             f"the ground truth lets go next: {mask_to_parts(view.truth_next) or 'nothing'}"
@@ -122,7 +123,7 @@ def _step_markdown(record: SequenceRecord, step: int) -> str:
     return "\n".join(lines)
 
 
-def record_assembly(rec: rr.RecordingStream, record: SequenceRecord, root: str) -> None:
+def record_assembly(rec: rr.RecordingStream, record: PlanView, root: str) -> None:
     """Log one assembly under `root` (static tables, then the best sequence step by step)."""
     rec.log(root, rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
     table = rr.TextDocument(_sequences_markdown(record), media_type="text/markdown")
@@ -207,7 +208,7 @@ def recording_stream(path: str | Path, name: str) -> Iterator[rr.RecordingStream
         tmp.unlink(missing_ok=True)
 
 
-def write_recording(records: Sequence[SequenceRecord], path: str | Path, name: str) -> Path:
+def write_recording(records: Sequence[PlanView], path: str | Path, name: str) -> Path:
     """Write `records` into the `.rrd` at `path` (atomically, `recording_stream`)."""
     with recording_stream(path, name) as rec:
         roots = [entity_root(r, i) for i, r in enumerate(records)]

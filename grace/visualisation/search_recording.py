@@ -1,8 +1,9 @@
 """plan.rrd of a verified search: how the search went, and the verified order in the cell.
 
-grace/visualisation/records.py's `search_record` gathers what to draw where the simulator lives
-(the reasons of every refusal from `Simulator.explain`'s verdicts, the cell's poses along the
-verified order); the writer logs, under `/plan/<assembly>` (docs/recordings.md):
+The plan (grace/planning/plans.py) holds the search's first events, each refusal with the
+simulator's reason, and grace/planning/plan_views.py the cell's poses along the verified order,
+both gathered where the simulator lives; the writer only draws them. It logs, under
+`/plan/<assembly>` (docs/recordings.md):
 
 - on the `check` timeline, one row per search event (a step the checks accepted, a step they
   refused, a state ruled out by a learnt block): the parts placed in that state, the part tried
@@ -23,6 +24,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from grace.domain.assembly import mask_to_parts
+from grace.planning.plan_views import PlanView
 from grace.visualisation.recording import (
     BLOCKED,
     BLOCKER,
@@ -35,31 +37,31 @@ from grace.visualisation.recording import (
     parts_view,
     record_assembly,
     recording_stream,
+    write_recording,
 )
-from grace.visualisation.records import SearchRecord
 
 SEARCH_TIMELINE = "check"
 
 
-def _summary_markdown(record: SearchRecord) -> str:
-    assembly = record.order.assembly
-    rules = Counter(s.rule for s in record.steps if s.kind == "refused")
-    kinds = Counter(s.kind for s in record.steps)
+def _summary_markdown(record: PlanView) -> str:
+    assembly, plan, search = record.assembly, record.plan, record.plan.search
+    rules = Counter(s.rule for s in search.events if s.kind == "refused")
+    kinds = Counter(s.kind for s in search.events)
     lines = [
-        f"## {assembly.name or 'assembly'} ({assembly.n_parts} parts): {record.outcome}",
+        f"## {assembly.name or 'assembly'} ({assembly.n_parts} parts): {plan.outcome}",
         "",
-        f"{record.checks} simulator step checks in {record.seconds:.2f} s; "
-        f"{record.expanded} states scored by the policy",
+        f"{search.checks} simulator step checks in {plan.seconds:.2f} s; "
+        f"{search.expanded} states scored by the policy",
     ]
-    if record.first_checks is not None:
-        lines.append(f"first verified order after {record.first_checks} checks")
+    if search.first_checks is not None:
+        lines.append(f"first verified order after {search.first_checks} checks")
     lines += [
         "",
         f"events: {kinds['placed']} steps taken, {kinds['refused']} refused, "
         f"{kinds['ruled_out']} states ruled out"
         + (
-            f" (the first {len(record.steps)} of {record.events} shown)"
-            if record.events > len(record.steps)
+            f" (the first {len(search.events)} of {search.n_events} shown)"
+            if search.n_events > len(search.events)
             else ""
         ),
         "",
@@ -68,19 +70,19 @@ def _summary_markdown(record: SearchRecord) -> str:
         "| rank | verified order | probability |",
         "|---|---|---|",
     ]
-    for rank, ranked in enumerate(record.order.ranked, 1):
+    for ranked in plan.orders:
         order = " ".join(str(p) for p in ranked.sequence)
-        lines.append(f"| {rank} | {order} | {ranked.probability:.4g} |")
+        lines.append(f"| {ranked.rank} | {order} | {ranked.probability:.4g} |")
     return "\n".join(lines)
 
 
-def _tree(record: SearchRecord) -> tuple[rr.GraphNodes, rr.GraphEdges]:
+def _tree(record: PlanView) -> tuple[rr.GraphNodes, rr.GraphEdges]:
     """States (blue), the complete assembly (green) and refused candidates (red), linked by
     the steps tried."""
-    full = (1 << record.order.assembly.n_parts) - 1
+    full = (1 << record.assembly.n_parts) - 1
     nodes: dict[str, tuple[str, tuple]] = {"0": ("∅", PLACED)}
     edges = []
-    for step in record.steps:
+    for step in record.plan.search.events:
         if step.kind == "ruled_out":
             continue
         if step.kind == "placed":
@@ -98,7 +100,7 @@ def _tree(record: SearchRecord) -> tuple[rr.GraphNodes, rr.GraphEdges]:
     )
 
 
-def log_search(rec: rr.RecordingStream, record: SearchRecord, root: str) -> None:
+def log_search(rec: rr.RecordingStream, record: PlanView, root: str) -> None:
     """The search under `root` (static summary and tree, then one row per event)."""
     rec.log(root, rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
     rec.log(
@@ -108,13 +110,13 @@ def log_search(rec: rr.RecordingStream, record: SearchRecord, root: str) -> None
     )
     nodes, edges = _tree(record)
     rec.log(f"{root}/tree", nodes, edges, static=True)
-    clamps = record.order.clamps
+    clamps = record.clamps
     level = {"placed": "INFO", "refused": "WARN", "ruled_out": "DEBUG"}
-    for index, step in enumerate(record.steps):
+    for index, step in enumerate(record.plan.search.events):
         rec.set_time(SEARCH_TIMELINE, sequence=index)
         colour = CURRENT if step.kind == "placed" else BLOCKED
         highlight = {q: BLOCKER for q in step.blocking} | {step.part: colour}
-        rec.log(f"{root}/cell/parts", parts_view(record.order.assembly, step.state, highlight))
+        rec.log(f"{root}/cell/parts", parts_view(record.assembly, step.state, highlight))
         placed = [clamps[p] for p in mask_to_parts(step.state) if p in clamps]
         if placed:
             rec.log(f"{root}/cell/clamps", boxes_view(np.concatenate(placed), CLAMP))
@@ -127,11 +129,11 @@ def log_search(rec: rr.RecordingStream, record: SearchRecord, root: str) -> None
         rec.log(f"{root}/log", rr.TextLog(text, level=level[step.kind]))
 
 
-def write_search_recording(record: SearchRecord, path: str | Path, name: str) -> Path:
+def write_search_recording(record: PlanView, path: str | Path, name: str) -> Path:
     """plan.rrd: the search and the verified order (module docstring), written atomically."""
-    root = entity_root(record.order, 0)
+    root = entity_root(record, 0)
     with recording_stream(path, name) as rec:
-        record_assembly(rec, record.order, root)
+        record_assembly(rec, record, root)
         log_search(rec, record, f"{root}/search")
         search_tab = rrb.Horizontal(
             rrb.Spatial3DView(origin=f"{root}/search/cell", name="search: cell"),
@@ -145,3 +147,11 @@ def write_search_recording(record: SearchRecord, path: str | Path, name: str) ->
         tabs = rrb.Tabs(search_tab, *assembly_tabs([root]))
         rec.send_blueprint(rrb.Blueprint(tabs, collapse_panels=False))
     return Path(path)
+
+
+def write_plan_recording(record: PlanView, path: str | Path, name: str) -> Path:
+    """plan.rrd of either planner's plan: the search and its order when it searched (a verified
+    search), else its listed sequences as an experiment's sequences.rrd shows them."""
+    if record.plan.search is not None:
+        return write_search_recording(record, path, name)
+    return write_recording([record], path, name)

@@ -16,6 +16,7 @@ from hydra.utils import instantiate
 from grace.cli.fit import keep_config
 from grace.data.raw_format import read_assembly
 from grace.errors import UserError
+from grace.planning.plan_schema import validate_plan_json
 from grace.tasks.plan import run
 from grace.visualisation.recording import summarise, text_entries
 
@@ -70,7 +71,9 @@ def plan(cfg_factory, ckpt, assembly, *overrides):
     cfg = cfg_factory("task=plan", f"ckpt={ckpt}", f"assembly={assembly}", *overrides)
     run(cfg)
     text = (Path(cfg.paths.output_dir) / "plan.json").read_text()
-    return json.loads(text, parse_constant=_not_json), cfg
+    result = json.loads(text, parse_constant=_not_json)
+    validate_plan_json(result)  # docs/plan-schema.json's keys and types
+    return result, cfg
 
 
 def _not_json(constant: str):
@@ -87,9 +90,10 @@ def test_plan_with_a_model_fitted_to_a_hand_made_assembly(cfg_factory, tmp_path)
     result, _ = plan(
         cfg_factory, train, asm, "planner=topk", "planner.k=6", "planner.threshold=0.5"
     )
-    assert {tuple(s["sequence"]) for s in result["sequences"]} == KNOWN_ORDERS
-    assert all(s["simulator"]["feasible"] for s in result["sequences"])
-    assert result["feasibility"] >= 0.5
+    assert {tuple(s["sequence"]) for s in result["orders"]} == KNOWN_ORDERS
+    assert all(s["simulator"]["feasible"] for s in result["orders"])
+    assert result["feasibility"] >= 0.5 and result["outcome"] == "listed"
+    assert result["planner"]["name"] == "topk" and result["planner"]["k"] == 6
 
     # All 3! orders best first: the known ones first, every other one refused by the simulator
     # at its first step outside them, with the deciding rule.
@@ -97,10 +101,10 @@ def test_plan_with_a_model_fitted_to_a_hand_made_assembly(cfg_factory, tmp_path)
         cfg_factory, train / "checkpoints" / "best.ckpt", asm, "planner=topk", "planner.k=6",
         "task.recording=true",
     )  # fmt: skip
-    ranked = [tuple(s["sequence"]) for s in result["sequences"]]
+    ranked = [tuple(s["sequence"]) for s in result["orders"]]
     assert sorted(ranked) == sorted(itertools.permutations(range(3)))
     assert set(ranked[:2]) == KNOWN_ORDERS
-    for entry in result["sequences"]:
+    for entry in result["orders"]:
         order, sim = tuple(entry["sequence"]), entry["simulator"]
         assert sim["feasible"] == (order in KNOWN_ORDERS)
         if not sim["feasible"]:
