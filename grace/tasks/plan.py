@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -34,6 +34,7 @@ from grace.model.checkpoints import load_model
 from grace.model.kept import find_checkpoint
 from grace.model.scoring import make_scorer
 from grace.planning.topk import FULL_TABLE_MAX_PARTS, rank_sequences
+from grace.roles import PLANNING
 from grace.simulation.check import OrderChecker, blockers, describe
 from grace.visualisation.records import SequenceRecord, ranked_record, with_cell
 
@@ -45,11 +46,16 @@ class PlanSettings(TaskSettings):
     """Schema of `task=plan` (values in grace/conf/task/plan.yaml)."""
 
     reads: ClassVar[tuple[str, ...] | None] = ("planner",)
-    ckpt: str | None = MISSING  # a run folder (train or experiment) or a .ckpt file
-    assembly: str | None = MISSING  # a raw assembly folder or an assembly.spec file
-    fold: int = 0  # which fold's model of an experiment run folder
-    recording: bool = False  # plan.rrd too, written after plan.json and the printed answer
-    kept_world: bool = True  # the model's training cell; false: `simulator=` (e.g. large_frames)
+    # a run folder (train or experiment) or a .ckpt file
+    ckpt: str | None = field(default=MISSING, metadata=PLANNING)
+    # a raw assembly folder or an assembly.spec file
+    assembly: str | None = field(default=MISSING, metadata=PLANNING)
+    # which fold's model of an experiment run folder
+    fold: int = field(default=0, metadata=PLANNING)
+    # plan.rrd too, written after plan.json and the printed answer
+    recording: bool = field(default=False, metadata=PLANNING)
+    # the model's training cell; false: `simulator=` (e.g. large_frames)
+    kept_world: bool = field(default=True, metadata=PLANNING)
 
 
 def plan_json(record: SequenceRecord, sources: dict[str, Any]) -> dict[str, Any]:
