@@ -257,22 +257,23 @@ def _trainer_schemas() -> dict[str, type]:
     }
 
 
+def _options(group: str, role: Role, **targets: Callable[..., Any]) -> dict[str, type]:
+    """`<group>/<option>` → the schema of each target, every key of `role`."""
+    return {f"{group}/{name}": schema(target, role=role) for name, target in targets.items()}
+
+
 def _callbacks_schemas() -> dict[str, type]:
     from lightning.pytorch.callbacks import EarlyStopping, ModelCheckpoint
 
-    return {
-        "callbacks/early_stopping": schema(EarlyStopping, role=Role.weights),
-        "callbacks/model_checkpoint": schema(ModelCheckpoint, role=Role.weights),
-    }
+    return _options(
+        "callbacks", Role.weights, early_stopping=EarlyStopping, model_checkpoint=ModelCheckpoint
+    )
 
 
 def _logger_schemas() -> dict[str, type]:
     from lightning.pytorch.loggers import CSVLogger, TensorBoardLogger
 
-    return {
-        "logger/csv": schema(CSVLogger, role=Role.weights),
-        "logger/tensorboard": schema(TensorBoardLogger, role=Role.weights),
-    }
+    return _options("logger", Role.weights, csv=CSVLogger, tensorboard=TensorBoardLogger)
 
 
 def _tune_schemas() -> dict[str, type]:
@@ -285,19 +286,15 @@ def _planner_schemas() -> dict[str, type]:
     from grace.planning.search import VerifiedSearch
     from grace.planning.topk import TopKListing
 
-    return {
-        "planner/verified": schema(VerifiedSearch, role=Role.weights),
-        "planner/topk": schema(TopKListing, role=Role.weights),
-    }
+    return _options("planner", Role.weights, verified=VerifiedSearch, topk=TopKListing)
 
 
 def _threshold_schemas() -> dict[str, type]:
     from grace.planning.thresholds import AbsoluteThreshold, RelativeThreshold
 
-    return {
-        "threshold/absolute": schema(AbsoluteThreshold, role=Role.planning),
-        "threshold/relative": schema(RelativeThreshold, role=Role.planning),
-    }
+    return _options(
+        "threshold", Role.planning, absolute=AbsoluteThreshold, relative=RelativeThreshold
+    )
 
 
 GROUP_SCHEMAS: dict[str, Callable[[], dict[str, type]]] = {

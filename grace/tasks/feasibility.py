@@ -51,12 +51,12 @@ log = logging.getLogger(__name__)
 class FeasibilitySettings(ExperimentSettings):
     """Schema of `task=feasibility` (values in grace/conf/task/feasibility.yaml)."""
 
-    # also train a GRACE on the feasible assemblies only
     feasible_only: bool = field(default=MISSING, metadata=WEIGHTS)
-    # name -> classifier config (the classifier group's `estimator`)
+    """Also train a GRACE on the feasible assemblies only."""
     classifiers: Any = field(default=None, metadata=PLANNING)
-    # name -> density estimator config (grace/evaluation/density.py)
+    """Name → classifier config (the classifier group's `estimator`)."""
     densities: Any = field(default=None, metadata=PLANNING)
+    """Name → density estimator config (grace/evaluation/density.py)."""
 
 
 FEASIBLE_ONLY = "feasible-only GRACE, "
