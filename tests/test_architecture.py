@@ -29,8 +29,9 @@ LAYERS = (
 below. `cli` is the command line's machinery (schemas, checks, the runner, folds, the fit built
 from the config); `tasks` holds the entry points only."""
 
-LEAVES = ("grace", "grace.errors")
-"""Modules every layer may import; they import nothing of grace themselves."""
+LEAVES = ("grace", "grace.errors", "grace.roles")
+"""Modules every layer may import; they import nothing of grace themselves (grace.roles: what a
+config key changes, declared by schemas of every layer)."""
 
 
 def modules() -> dict[str, Path]:
@@ -179,12 +180,14 @@ TESTS = PACKAGE.parent / "tests"
 
 
 def test_every_task_module_is_a_short_entry_point():
-    """grace/tasks/ holds entry points only: each task config's `run` target, within 200 lines;
-    library logic lives in the layers below."""
+    """grace/tasks/ holds entry points only: each task config's `run` target, within 200 lines,
+    and the modules of a task package (code of the command line that one task alone uses,
+    docs/contributing.md, Layout); library logic lives in the layers below."""
     targets = {OmegaConf.load(p).run._target_ for p in (CONF_DIR / "task").glob("*.yaml")}
     entry_points = {target.rpartition(".")[0] for target in targets}
     found = {m for m in modules() if m.startswith("grace.tasks.")}
-    assert found == entry_points, "grace/tasks/ holds a module that no task config runs"
+    beside = {m for m in found if m.rpartition(".")[0] in entry_points}
+    assert found - beside == entry_points, "grace/tasks/ holds a module that no task config runs"
     long = [f"{modules()[m]}: {n} lines" for m in found if (n := lines(modules()[m])) > 200]
     assert not long, "\n".join(long)
 

@@ -19,6 +19,7 @@ from hydra.utils import instantiate
 from lightning.fabric.utilities.exceptions import MisconfigurationException
 from omegaconf import DictConfig, OmegaConf, open_dict
 
+from grace.cli.key_roles import keys_of
 from grace.data.atomic import write_text_atomic
 from grace.domain.sample import LabelledAssembly
 from grace.errors import UserError
@@ -27,6 +28,7 @@ from grace.model.fit import fit
 from grace.model.kept import CHECKPOINT, KEPT_CONFIG, read_kept_config
 from grace.model.module import GraceModule
 from grace.model.resume import LastCheckpoint
+from grace.roles import Role
 
 
 def _resolved(cfg: DictConfig) -> dict:
@@ -115,15 +117,14 @@ def _trainer(cfg: DictConfig, **kwargs: object) -> pl.Trainer:
         ) from None
 
 
-RUN_ONLY = (
-    *("paths", "threads", "debug", "task.fold_jobs", "trainer.enable_progress_bar"),
-    *("dataset.workers", "dataset.data_dir"),
-)
-"""Keys that change where or how fast a run goes, never its results: a rerun may change them."""
+def _ignored(cfg: DictConfig, *roles: Role) -> tuple[str, ...]:
+    """The keys of `cfg`'s task and groups whose declared role (grace/roles.py) is one of
+    `roles`: they may differ between a kept run and this one."""
+    return keys_of(OmegaConf.select(cfg, "task.run._target_", default=None), *roles)
 
 
-def _results_keys(node: dict, ignored: Sequence[str] = RUN_ONLY) -> dict:
-    """`node` without the `ignored` keys (RUN_ONLY: what decides a run's results)."""
+def _results_keys(node: dict, ignored: Sequence[str]) -> dict:
+    """`node` without the `ignored` keys."""
     node = OmegaConf.to_container(OmegaConf.create(node))
     for key in ignored:
         *parents, name = key.split(".")
@@ -146,29 +147,23 @@ def resume_from(cfg: DictConfig, out_dir: str | Path, callbacks: Sequence[object
     """The `last.ckpt` that a killed run of this config left in `out_dir`, or None.
 
     Called before keep_config overwrites `out_dir/config.yaml`: a last checkpoint whose run kept
-    another config is a UserError, since resuming it would mix two experiments.
+    another config is a UserError, since resuming it would mix two experiments. Keys declared
+    `run` (where or how fast a run goes: paths, threads, workers) may differ.
     """
     last = _last_checkpoint(callbacks)
     if last is None or not last.exists():
         return None
     record = Path(out_dir) / KEPT_CONFIG
     before = OmegaConf.to_container(read_kept_config(record, ())) if record.exists() else None
-    if before is not None and _results_keys(before) != _results_keys(_resolved(cfg)):
+    ignored = _ignored(cfg, Role.run)
+    if before is not None and _results_keys(before, ignored) != _results_keys(
+        _resolved(cfg), ignored
+    ):
         raise UserError(
             f"{last} was written by a run of another config ({record}); fix: the same "
             f"overrides as that run, or a new paths.output_dir, or delete {Path(out_dir)}"
         )
     return str(last)
-
-
-PLANNING_ONLY = (
-    *("model.net.score", "classifier", "task.checkpoints", "task.scorer", "task.threshold"),
-    "threshold",
-    *("task.ks", "task.baselines", "task.recording", "task.classifiers", "task.densities"),
-)
-"""Keys that change how a trained model plans and is measured, never its weights (the score is
-no part of the loss, and early stopping watches `monitor`): a kept checkpoint is re-planned
-under new values of these (`task.checkpoints`)."""
 
 
 def _flat(node: object, prefix: str = "") -> dict[str, object]:
@@ -182,7 +177,8 @@ def _flat(node: object, prefix: str = "") -> dict[str, object]:
 
 def kept_module(cfg: DictConfig, fold_dir: str | Path, validated: bool = True) -> GraceModule:
     """The module a run kept in `fold_dir` (its best checkpoint), built from `cfg.model`, so
-    that keys of PLANNING_ONLY (e.g. `model.net.score`) may differ from the run's. The run's
+    that keys declared `planning` or `run` (e.g. `model.net.score`, grace/roles.py) may differ
+    from the run's. The run's
     kept config must equal `cfg` in every key that decides the weights: a checkpoint of another
     data set, protocol, model or schedule is a UserError naming the first keys that differ.
     `validated`: whether the fold had validation assemblies (it decides the monitor)."""
@@ -193,7 +189,7 @@ def kept_module(cfg: DictConfig, fold_dir: str | Path, validated: bool = True) -
             f"task.checkpoints: no {CHECKPOINT} and {KEPT_CONFIG} in {fold_dir}; fix: the folder "
             "of an experiment run of this protocol whose folds finished training"
         )
-    ignored = (*RUN_ONLY, *PLANNING_ONLY)
+    ignored = _ignored(cfg, Role.run, Role.planning)
     before = _flat(_results_keys(OmegaConf.to_container(read_kept_config(kept, ())), ignored))
     now = _flat(_results_keys(_resolved(fit_config(cfg, fold_dir, validated)), ignored))
     differ = sorted(k for k in before.keys() | now.keys() if before.get(k) != now.get(k))

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 from hydra.core.hydra_config import HydraConfig
@@ -13,6 +13,7 @@ from omegaconf import MISSING, DictConfig
 from grace.cli.checks import check_config, ignored_options
 from grace.cli.determinism import cap_threads, seed_all
 from grace.cli.logs import quiet_terminal
+from grace.roles import WEIGHTS
 
 log = logging.getLogger(__name__)
 
@@ -27,8 +28,8 @@ class TaskSettings:
     untyped and their modules are not imported, which saves a task that trains nothing the
     seconds Lightning takes to load."""
 
-    name: str = MISSING
-    run: Any = MISSING
+    name: str = field(default=MISSING, metadata=WEIGHTS)
+    run: Any = field(default=MISSING, metadata=WEIGHTS)
     reads: ClassVar[tuple[str, ...] | None] = None
 
 

@@ -37,6 +37,7 @@ from grace.cli.signals import held_while_loading
 from grace.data.loading import RawSource
 from grace.data.store import GeneratedSource
 from grace.evaluation.protocols import ProtocolSettings
+from grace.roles import PLANNING, ROLE, RUN, WEIGHTS, Role
 from grace.simulation.cell_config import register as register_simulator_schemas
 
 _SCALARS = (int, float, bool, str, bytes, Path)
@@ -82,11 +83,12 @@ def _default(spec: dataclasses.Field) -> Any:
     return MISSING if spec.default is dataclasses.MISSING else spec.default
 
 
-def _field(value: Any) -> Any:
+def _field(value: Any, role: Role | None) -> Any:
+    metadata = {} if role is None else {ROLE: role}
     if isinstance(value, (list, tuple, dict)):
         copy = list(value) if isinstance(value, (list, tuple)) else dict(value)
-        return field(default_factory=lambda: copy)
-    return field(default=value)
+        return field(default_factory=lambda: copy, metadata=metadata)
+    return field(default=value, metadata=metadata)
 
 
 def schema(
@@ -95,15 +97,19 @@ def schema(
     exclude: tuple[str, ...] = (),
     nested: Mapping[str, type] | None = None,
     meta: Mapping[str, Any] | None = None,
+    role: Role | None = None,
+    roles: Mapping[str, Role] | None = None,
 ) -> type:
     """A dataclass schema of the config that instantiates `target`.
 
     `exclude` names parameters given at run time rather than by the config, `nested` the schemas
     of parameters that are configs with their own `_target_`, `meta` Hydra's special keys and
     their values. A parameter whose default cannot stand in a config (a function, an object) is
-    left out: it cannot be configured.
+    left out: it cannot be configured. `role` is what every key changes (grace/roles.py), but
+    those `roles` names; a name in `roles` that is no key of the schema is a TypeError, so a
+    declaration never outlives its key.
     """
-    nested = dict(nested or {})
+    nested, roles = dict(nested or {}), dict(roles or {})
     if dataclasses.is_dataclass(target):
         hints = typing.get_type_hints(target)
         params = {f.name: _default(f) for f in dataclasses.fields(target) if f.init}
@@ -116,16 +122,21 @@ def schema(
             if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)
         }
     spec: list[tuple[str, Any, Any]] = [
-        ("_target_", str, field(default=f"{target.__module__}.{target.__qualname__}"))
+        ("_target_", str, _field(f"{target.__module__}.{target.__qualname__}", role))
     ]
-    spec += [(key, type(value), field(default=value)) for key, value in (meta or {}).items()]
+    spec += [(key, type(value), _field(value, role)) for key, value in (meta or {}).items()]
     for name, default in params.items():
         if name in exclude:
             continue
         if name in nested:
             spec.append((name, nested[name], field(default_factory=nested[name])))
         elif default is MISSING or _config_value(default):
-            spec.append((name, config_type(hints.get(name, Any)), _field(default)))
+            kind = config_type(hints.get(name, Any))
+            spec.append((name, kind, _field(default, roles.pop(name, role))))
+    if roles:
+        raise TypeError(
+            f"roles of {target.__qualname__} name no key of its schema: {sorted(roles)}"
+        )
     return dataclasses.make_dataclass(f"{target.__qualname__}Schema", spec)
 
 
@@ -140,32 +151,34 @@ class MonitorMode(enum.StrEnum):
 class Monitor:
     """What early stopping, the best checkpoint and the lr scheduler watch."""
 
-    metric: str = "val_loss"
-    mode: MonitorMode = MonitorMode.min
+    metric: str = field(default="val_loss", metadata=WEIGHTS)
+    mode: MonitorMode = field(default=MonitorMode.min, metadata=WEIGHTS)
 
 
 @dataclass
 class Paths:
     """Where data, run outputs and logs go."""
 
-    data_dir: str = "data_cache"
-    output_dir: str = MISSING
-    fit_dir: str = MISSING
-    log_file: str = MISSING
+    data_dir: str = field(default="data_cache", metadata=RUN)
+    output_dir: str = field(default=MISSING, metadata=RUN)
+    fit_dir: str = field(default=MISSING, metadata=RUN)
+    log_file: str = field(default=MISSING, metadata=RUN)
 
 
 @dataclass
 class RootConfig:
-    """The keys of `config.yaml` and one untyped slot per config group (each has a schema)."""
+    """The keys of `config.yaml` and one untyped slot per config group: a group with schemas
+    declares the roles of its keys there; `classifier` and `scale` have none, so their slots
+    declare theirs."""
 
-    seed: int = 0
-    threads: int = 2
-    debug: bool = False
-    train_size: int = 5
-    test_size: int = 5
-    ckpt: str | None = None
-    assembly: str | None = None
-    path: str | None = None
+    seed: int = field(default=0, metadata=WEIGHTS)
+    threads: int = field(default=2, metadata=RUN)
+    debug: bool = field(default=False, metadata=RUN)
+    train_size: int = field(default=5, metadata=WEIGHTS)
+    test_size: int = field(default=5, metadata=WEIGHTS)
+    ckpt: str | None = field(default=None, metadata=WEIGHTS)
+    assembly: str | None = field(default=None, metadata=WEIGHTS)
+    path: str | None = field(default=None, metadata=WEIGHTS)
     monitor: Monitor = field(default_factory=Monitor)
     paths: Paths = field(default_factory=Paths)
     task: Any = MISSING
@@ -177,10 +190,11 @@ class RootConfig:
     callbacks: Any = None
     logger: Any = None
     protocol: Any = None
-    classifier: Any = None
+    # task.classifiers' classifier, fitted on the kept model's embeddings
+    classifier: Any = field(default=None, metadata=PLANNING)
     planner: Any = None
     threshold: Any = None
-    scale: Any = None
+    scale: Any = field(default=None, metadata=WEIGHTS)  # the data set's sizes
     tune: Any = None
 
 
@@ -189,9 +203,12 @@ def light_schemas() -> dict[str, type]:
     line in a second, before the heavy libraries load (grace/cli/preflight.py)."""
     return {
         "dataset/generated": schema(
-            GeneratedSource, meta={"_recursive_": False, "_convert_": "all"}
+            GeneratedSource,
+            meta={"_recursive_": False, "_convert_": "all"},
+            role=Role.weights,
+            roles={"workers": Role.run, "data_dir": Role.run},
         ),
-        "dataset/raw": schema(RawSource),
+        "dataset/raw": schema(RawSource, role=Role.weights, roles={"data_dir": Role.run}),
         "protocol": ProtocolSettings,
     }
 
@@ -204,7 +221,12 @@ def _model_schemas() -> dict[str, type]:
     return {
         "model": schema(
             GraceModule,
-            nested={"net": schema(NetConfig), "graph": schema(GraphEncoding)},
+            nested={
+                # the score is no part of the loss: the same weights plan under every rule
+                "net": schema(NetConfig, role=Role.weights, roles={"score": Role.planning}),
+                "graph": schema(GraphEncoding, role=Role.weights),
+            },
+            role=Role.weights,
         )
     }
 
@@ -214,7 +236,10 @@ def _datamodule_schemas() -> dict[str, type]:
 
     return {
         "datamodule": schema(
-            StateDataModule, exclude=("train", "val", "enc", "collate"), meta={"_partial_": True}
+            StateDataModule,
+            exclude=("train", "val", "enc", "collate"),
+            meta={"_partial_": True},
+            role=Role.weights,
         )
     }
 
@@ -222,22 +247,33 @@ def _datamodule_schemas() -> dict[str, type]:
 def _trainer_schemas() -> dict[str, type]:
     from lightning.pytorch import Trainer
 
-    return {"trainer": schema(Trainer, exclude=("callbacks", "logger", "plugins"))}
+    return {
+        "trainer": schema(
+            Trainer,
+            exclude=("callbacks", "logger", "plugins"),
+            role=Role.weights,
+            roles={"enable_progress_bar": Role.run},
+        )
+    }
+
+
+def _options(group: str, role: Role, **targets: Callable[..., Any]) -> dict[str, type]:
+    """`<group>/<option>` → the schema of each target, every key of `role`."""
+    return {f"{group}/{name}": schema(target, role=role) for name, target in targets.items()}
 
 
 def _callbacks_schemas() -> dict[str, type]:
     from lightning.pytorch.callbacks import EarlyStopping, ModelCheckpoint
 
-    return {
-        "callbacks/early_stopping": schema(EarlyStopping),
-        "callbacks/model_checkpoint": schema(ModelCheckpoint),
-    }
+    return _options(
+        "callbacks", Role.weights, early_stopping=EarlyStopping, model_checkpoint=ModelCheckpoint
+    )
 
 
 def _logger_schemas() -> dict[str, type]:
     from lightning.pytorch.loggers import CSVLogger, TensorBoardLogger
 
-    return {"logger/csv": schema(CSVLogger), "logger/tensorboard": schema(TensorBoardLogger)}
+    return _options("logger", Role.weights, csv=CSVLogger, tensorboard=TensorBoardLogger)
 
 
 def _tune_schemas() -> dict[str, type]:
@@ -250,16 +286,15 @@ def _planner_schemas() -> dict[str, type]:
     from grace.planning.search import VerifiedSearch
     from grace.planning.topk import TopKListing
 
-    return {"planner/verified": schema(VerifiedSearch), "planner/topk": schema(TopKListing)}
+    return _options("planner", Role.weights, verified=VerifiedSearch, topk=TopKListing)
 
 
 def _threshold_schemas() -> dict[str, type]:
     from grace.planning.thresholds import AbsoluteThreshold, RelativeThreshold
 
-    return {
-        "threshold/absolute": schema(AbsoluteThreshold),
-        "threshold/relative": schema(RelativeThreshold),
-    }
+    return _options(
+        "threshold", Role.planning, absolute=AbsoluteThreshold, relative=RelativeThreshold
+    )
 
 
 GROUP_SCHEMAS: dict[str, Callable[[], dict[str, type]]] = {
@@ -299,7 +334,7 @@ def task_schemas(conf_dir: Path = CONF_DIR, run: str | None = None) -> dict[str,
 
     out = {}
     for path in sorted((conf_dir / "task").glob("*.yaml")):
-        target = _yaml(path)["run"]["_target_"]
+        target = config_yaml(path)["run"]["_target_"]
         if run is not None and target != run:
             continue
         module = importlib.import_module(target.rpartition(".")[0])
@@ -320,7 +355,7 @@ def task_schemas(conf_dir: Path = CONF_DIR, run: str | None = None) -> dict[str,
     return out
 
 
-def _yaml(path: Path) -> dict[str, Any]:
+def config_yaml(path: Path) -> dict[str, Any]:
     """A config file's plain content (libyaml's parser: a tenth of OmegaConf.load's time, which
     counts when every file of the tree is read at each start)."""
     return yaml.load(path.read_text(), Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader)) or {}
@@ -331,7 +366,7 @@ def referenced_schemas(conf_dir: Path = CONF_DIR) -> frozenset[str]:
     """Every `schema/<group>` path that a YAML file of the config tree lists in its defaults."""
     found = set()
     for path in conf_dir.rglob("*.yaml"):
-        for entry in _yaml(path).get("defaults", None) or []:
+        for entry in config_yaml(path).get("defaults", None) or []:
             text = entry if isinstance(entry, str) else next(iter(entry), "")
             if isinstance(text, str) and text.startswith("/schema/"):
                 found.add(text.removeprefix("/").split("@")[0])

@@ -17,6 +17,7 @@ from omegaconf import MISSING, DictConfig, OmegaConf
 from omegaconf.errors import OmegaConfBaseException
 
 from grace.errors import UserError
+from grace.roles import WEIGHTS
 
 _ABSENT = object()
 
@@ -45,18 +46,18 @@ class Direction(enum.StrEnum):
 class TuneConfig:
     """Schema of the `tune` group (values and comments in grace/conf/tune/default.yaml)."""
 
-    study_name: str = MISSING
-    storage: str | None = None
-    n_trials: int = MISSING
-    timeout: float | None = None
-    folds: int | None = None
-    metric: str = MISSING
-    direction: Direction = Direction.maximize
-    sampler: Any = MISSING
-    pruner: Any = None
+    study_name: str = field(default=MISSING, metadata=WEIGHTS)
+    storage: str | None = field(default=None, metadata=WEIGHTS)
+    n_trials: int = field(default=MISSING, metadata=WEIGHTS)
+    timeout: float | None = field(default=None, metadata=WEIGHTS)
+    folds: int | None = field(default=None, metadata=WEIGHTS)
+    metric: str = field(default=MISSING, metadata=WEIGHTS)
+    direction: Direction = field(default=Direction.maximize, metadata=WEIGHTS)
+    sampler: Any = field(default=MISSING, metadata=WEIGHTS)
+    pruner: Any = field(default=None, metadata=WEIGHTS)
     # Untyped here (each entry is checked as a Param when the tune starts): Hydra's command
     # line cannot add a dict to a typed dict of dataclasses ('+tune.space.x={key: ...}').
-    space: Any = field(default_factory=dict)
+    space: Any = field(default_factory=dict, metadata=WEIGHTS)
 
 
 def _param(name: str, entry: Any, cfg: DictConfig) -> Param:

@@ -13,27 +13,28 @@ trained on.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from omegaconf import MISSING
 
 from grace.domain.sample import LabelledAssembly
 from grace.errors import UserError
+from grace.roles import WEIGHTS
 
 
 @dataclass
 class ProtocolSettings:
     """Schema of the `protocol` group (docs/protocols.md); sizes None = all in the data set."""
 
-    name: str = MISSING
-    folds: int = MISSING
-    val_fraction: float = MISSING
-    seed: int = MISSING
-    train_sizes: list[int] | None = MISSING
-    test_sizes: list[int] | None = MISSING
-    train_exclude: list[int] = MISSING
-    test_exclude: list[int] = MISSING
+    name: str = field(default=MISSING, metadata=WEIGHTS)
+    folds: int = field(default=MISSING, metadata=WEIGHTS)
+    val_fraction: float = field(default=MISSING, metadata=WEIGHTS)
+    seed: int = field(default=MISSING, metadata=WEIGHTS)
+    train_sizes: list[int] | None = field(default=MISSING, metadata=WEIGHTS)
+    test_sizes: list[int] | None = field(default=MISSING, metadata=WEIGHTS)
+    train_exclude: list[int] = field(default=MISSING, metadata=WEIGHTS)
+    test_exclude: list[int] = field(default=MISSING, metadata=WEIGHTS)
 
 
 @dataclass(frozen=True)

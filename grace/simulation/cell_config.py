@@ -21,6 +21,7 @@ from omegaconf import MISSING, OmegaConf
 from omegaconf.errors import OmegaConfBaseException
 
 from grace.errors import UserError
+from grace.roles import WEIGHTS
 
 CONFIG_DIR = "grace/conf/simulator"
 
@@ -177,20 +178,31 @@ class GeneratorConfig:
 
 @dataclass
 class SimulatorConfig:
-    _target_: str = "grace.simulation.simulator.Simulator"
-    _convert_: str = "all"
-    cell: CellConfig = field(default_factory=CellConfig)
-    generator: GeneratorConfig = field(default_factory=GeneratorConfig)
-    motion: MotionConfig = field(default_factory=MotionConfig)
-    rules: dict[str, bool] = field(default_factory=lambda: dict.fromkeys(RULES, True))
+    _target_: str = field(default="grace.simulation.simulator.Simulator", metadata=WEIGHTS)
+    _convert_: str = field(default="all", metadata=WEIGHTS)
+    cell: CellConfig = field(default_factory=CellConfig, metadata=WEIGHTS)
+    generator: GeneratorConfig = field(default_factory=GeneratorConfig, metadata=WEIGHTS)
+    motion: MotionConfig = field(default_factory=MotionConfig, metadata=WEIGHTS)
+    rules: dict[str, bool] = field(
+        default_factory=lambda: dict.fromkeys(RULES, True), metadata=WEIGHTS
+    )
+
+
+def simulator_schemas() -> dict[str, type]:
+    """`<group>/<name>` → schema, of the schemas the simulator yaml files extend."""
+    return {
+        "simulator": SimulatorConfig,
+        "simulator/cell": CellConfig,
+        "simulator/generator": GeneratorConfig,
+    }
 
 
 def register() -> None:
     """Store the schemas the simulator yaml files extend (idempotent; also run on import)."""
     store = ConfigStore.instance()
-    store.store(group="schema", name="simulator", node=SimulatorConfig)
-    store.store(group="schema/simulator", name="cell", node=CellConfig)
-    store.store(group="schema/simulator", name="generator", node=GeneratorConfig)
+    for path, node in simulator_schemas().items():
+        group, _, name = f"schema/{path}".rpartition("/")
+        store.store(group=group, name=name, node=node)
 
 
 T = TypeVar("T")

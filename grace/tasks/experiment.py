@@ -43,6 +43,7 @@ from grace.evaluation.results import (
 )
 from grace.planning.plan_views import PlanView, fold_views
 from grace.planning.sequences import Scorer
+from grace.roles import PLANNING, RUN, WEIGHTS
 from grace.visualisation.analysis import draw_analysis
 from grace.visualisation.plots import p_at_k_bars, pr_curves
 from grace.visualisation.recording import write_recording
@@ -55,15 +56,20 @@ log = logging.getLogger(__name__)
 class ExperimentSettings(TaskSettings):
     """Schema of `task=experiment` (values in grace/conf/task/experiment.yaml)."""
 
-    fit: Any = MISSING  # (cfg, train, val, out_dir, callbacks) -> trained module, a partial
-    scorer: Any = MISSING  # (module) -> Scorer, a partial
-    threshold: float = MISSING
-    ks: list[int] = MISSING
-    baselines: list[str] = MISSING
-    train_feasible_only: bool = MISSING  # train on feasible assemblies only (training_subset)
-    fold_jobs: int = MISSING
-    checkpoints: str | None = None  # a run folder: plan its folds' kept models, train none
-    recording: RecordingSettings = field(default_factory=RecordingSettings)  # sequences.rrd
+    # (cfg, train, val, out_dir, callbacks) -> trained module, a partial
+    fit: Any = field(default=MISSING, metadata=WEIGHTS)
+    # (module) -> Scorer, a partial
+    scorer: Any = field(default=MISSING, metadata=PLANNING)
+    threshold: float = field(default=MISSING, metadata=PLANNING)
+    ks: list[int] = field(default=MISSING, metadata=PLANNING)
+    baselines: list[str] = field(default=MISSING, metadata=PLANNING)
+    # train on feasible assemblies only (training_subset)
+    train_feasible_only: bool = field(default=MISSING, metadata=WEIGHTS)
+    fold_jobs: int = field(default=MISSING, metadata=RUN)
+    # a run folder: plan its folds' kept models, train none
+    checkpoints: str | None = field(default=None, metadata=PLANNING)
+    # sequences.rrd
+    recording: RecordingSettings = field(default_factory=RecordingSettings, metadata=PLANNING)
 
 
 def _policies(cfg: DictConfig, module: object, fold: Fold) -> dict[str, Scorer]:

@@ -14,7 +14,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -40,6 +40,7 @@ from grace.evaluation.protocols import Fold, training_subset
 from grace.evaluation.report import feasibility_table, health_lines
 from grace.evaluation.results import FoldHealth, SchemeSummary
 from grace.planning.sequences import Scorer
+from grace.roles import PLANNING, WEIGHTS
 from grace.tasks.experiment import ExperimentSettings
 from grace.visualisation.analysis import feasibility_roc
 
@@ -50,9 +51,12 @@ log = logging.getLogger(__name__)
 class FeasibilitySettings(ExperimentSettings):
     """Schema of `task=feasibility` (values in grace/conf/task/feasibility.yaml)."""
 
-    feasible_only: bool = MISSING  # also train a GRACE on the feasible assemblies only
-    classifiers: Any = None  # name -> classifier config (the classifier group's `estimator`)
-    densities: Any = None  # name -> density estimator config (grace/evaluation/density.py)
+    feasible_only: bool = field(default=MISSING, metadata=WEIGHTS)
+    """Also train a GRACE on the feasible assemblies only."""
+    classifiers: Any = field(default=None, metadata=PLANNING)
+    """Name → classifier config (the classifier group's `estimator`)."""
+    densities: Any = field(default=None, metadata=PLANNING)
+    """Name → density estimator config (grace/evaluation/density.py)."""
 
 
 FEASIBLE_ONLY = "feasible-only GRACE, "

@@ -7,7 +7,7 @@ folder (grace/evaluation/gather.py: Table 2, Table 3, variants as blocks of rows
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from omegaconf import MISSING, DictConfig
@@ -16,6 +16,7 @@ from grace.cli.runner import TaskSettings
 from grace.data.atomic import write_text_atomic
 from grace.evaluation.gather import collect, find_results, gather_markdown
 from grace.evaluation.results import to_json
+from grace.roles import RUN
 
 log = logging.getLogger(__name__)
 
@@ -24,7 +25,7 @@ log = logging.getLogger(__name__)
 class GatherSettings(TaskSettings):
     """Schema of `task=gather` (values in grace/conf/task/gather.yaml)."""
 
-    roots: list[str] = MISSING
+    roots: list[str] = field(default=MISSING, metadata=RUN)
 
 
 def run(cfg: DictConfig) -> None:

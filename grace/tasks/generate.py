@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from hydra.utils import instantiate
@@ -24,6 +24,7 @@ from grace.data.store import GeneratedSource, seconds_per_assembly
 from grace.domain.sample import LabelledAssembly
 from grace.errors import UserError
 from grace.evaluation.tables import dataset_tables
+from grace.roles import RUN
 from grace.visualisation.topview import topview_png
 
 log = logging.getLogger(__name__)
@@ -33,8 +34,8 @@ log = logging.getLogger(__name__)
 class GenerateSettings(TaskSettings):
     """Schema of `task=generate` (values in grace/conf/task/generate.yaml)."""
 
-    topview: int = MISSING
-    export_raw: str | None = MISSING
+    topview: int = field(default=MISSING, metadata=RUN)
+    export_raw: str | None = field(default=MISSING, metadata=RUN)
 
 
 STATS_FILE = "stats.json"

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import gc
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import ClassVar
 
@@ -35,6 +35,7 @@ from grace.planning.plan_file import write_plan
 from grace.planning.plan_views import plan_view
 from grace.planning.plans import Plan
 from grace.planning.topk import lazy_scores
+from grace.roles import PLANNING, RUN
 
 
 @dataclass
@@ -42,12 +43,18 @@ class PlanSettings(TaskSettings):
     """Schema of `task=plan` (values in grace/conf/task/plan.yaml)."""
 
     reads: ClassVar[tuple[str, ...] | None] = ("planner",)
-    ckpt: str | None = MISSING  # a run folder (train or experiment) or a .ckpt file
-    assembly: str | None = MISSING  # a raw assembly folder or an assembly.spec file
-    fold: int = 0  # which fold's model of an experiment run folder
-    recording: bool = False  # plan.rrd too, written after plan.json and the printed answer
-    kept_world: bool = True  # the model's training cell; false: `simulator=` (e.g. large_frames)
-    threads: int = 1  # the root `threads` follows it unless given
+    # a run folder (train or experiment) or a .ckpt file
+    ckpt: str | None = field(default=MISSING, metadata=PLANNING)
+    # a raw assembly folder or an assembly.spec file
+    assembly: str | None = field(default=MISSING, metadata=PLANNING)
+    # which fold's model of an experiment run folder
+    fold: int = field(default=0, metadata=PLANNING)
+    # plan.rrd too, written after plan.json and the printed answer
+    recording: bool = field(default=False, metadata=PLANNING)
+    # the model's training cell; false: `simulator=` (e.g. large_frames)
+    kept_world: bool = field(default=True, metadata=PLANNING)
+    # torch threads of this task: the root `threads` follows it unless given
+    threads: int = field(default=1, metadata=RUN)
 
 
 def headline(plan: Plan) -> str:

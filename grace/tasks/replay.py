@@ -7,13 +7,14 @@ rerun's own reader (docs/recordings.md).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from omegaconf import MISSING, DictConfig
 
 from grace.cli.runner import TaskSettings
 from grace.errors import UserError
+from grace.roles import RUN
 from grace.visualisation.recording import open_viewer, summarise
 
 RECORDINGS = ("sequences.rrd", "plan.rrd")
@@ -23,8 +24,10 @@ RECORDINGS = ("sequences.rrd", "plan.rrd")
 class ReplaySettings(TaskSettings):
     """Schema of `task=replay` (values in grace/conf/task/replay.yaml)."""
 
-    path: str | None = MISSING  # a run folder (sequences.rrd or plan.rrd in it) or a .rrd file
-    viewer: bool = True  # open the viewer when a display exists
+    # a run folder (sequences.rrd or plan.rrd in it) or a .rrd file
+    path: str | None = field(default=MISSING, metadata=RUN)
+    # open the viewer when a display exists
+    viewer: bool = field(default=True, metadata=RUN)
 
 
 def find_recording(path: str | Path) -> Path:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import logging
 import shlex
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from omegaconf import MISSING, DictConfig
@@ -20,6 +20,7 @@ from grace.cli.runner import TaskSettings, task_overrides
 from grace.data.atomic import write_text_atomic
 from grace.evaluation.book import ENTRY, results_book
 from grace.evaluation.gather import find_results
+from grace.roles import RUN
 
 log = logging.getLogger(__name__)
 
@@ -28,7 +29,7 @@ log = logging.getLogger(__name__)
 class ReportSettings(TaskSettings):
     """Schema of `task=report` (values in grace/conf/task/report.yaml)."""
 
-    roots: list[str] = MISSING
+    roots: list[str] = field(default=MISSING, metadata=RUN)
 
 
 def run(cfg: DictConfig) -> None:

@@ -23,7 +23,7 @@ import json
 import logging
 import resource
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -48,6 +48,7 @@ from grace.model.scoring import make_scorer
 from grace.planning.cell_steps import SimulatorSteps
 from grace.planning.feasible_frames import FeasibleFrames
 from grace.planning.search import Outcome, VerifiedSearch
+from grace.roles import PLANNING, RUN
 from grace.visualisation.search_plots import search_bench_plot
 
 log = logging.getLogger(__name__)
@@ -57,22 +58,34 @@ log = logging.getLogger(__name__)
 class SearchBenchSettings(TaskSettings):
     """Schema of `task=search_bench` (values in grace/conf/task/search_bench.yaml)."""
 
-    ckpt: str | None = MISSING  # a run folder (train or experiment) or a .ckpt file
-    fold: int = 0  # which fold's model of an experiment run folder
-    sizes: Any = MISSING  # size → labelled test assemblies
-    default_sizes: Any = None  # what `sizes` interpolates unless overridden whole
-    data_seed: int = MISSING  # their data seed (not the training data's)
-    large_sizes: Any = None  # size → unlabelled assemblies (no brute force)
-    default_large_sizes: Any = None
-    large_feasible: bool = False  # draw them feasible (grace/planning/feasible_frames.py)
-    threads: int = 1  # the root `threads` follows it unless given
-    planners: list[str] = MISSING
-    large_planners: list[str] = MISSING
-    budgets: list[int] = MISSING  # multiples of N
-    max_seconds: float | None = MISSING  # per planner and labelled assembly
-    reference: str = "dfs"
-    heuristic: Any = MISSING  # grace.planning.heuristics.ContactHeuristic
-    unverified_max_expansions: int | None = None  # the unverified top-1's best-first bound
+    # a run folder (train or experiment) or a .ckpt file
+    ckpt: str | None = field(default=MISSING, metadata=PLANNING)
+    # which fold's model of an experiment run folder
+    fold: int = field(default=0, metadata=PLANNING)
+    # size → labelled test assemblies
+    sizes: Any = field(default=MISSING, metadata=PLANNING)
+    # what `sizes` interpolates unless overridden whole
+    default_sizes: Any = field(default=None, metadata=PLANNING)
+    # their data seed (not the training data's)
+    data_seed: int = field(default=MISSING, metadata=PLANNING)
+    # size → unlabelled assemblies (no brute force)
+    large_sizes: Any = field(default=None, metadata=PLANNING)
+    default_large_sizes: Any = field(default=None, metadata=PLANNING)
+    # draw them feasible (grace/planning/feasible_frames.py)
+    large_feasible: bool = field(default=False, metadata=PLANNING)
+    # torch threads of this task: the root `threads` follows it unless given
+    threads: int = field(default=1, metadata=RUN)
+    planners: list[str] = field(default=MISSING, metadata=PLANNING)
+    large_planners: list[str] = field(default=MISSING, metadata=PLANNING)
+    # multiples of N
+    budgets: list[int] = field(default=MISSING, metadata=PLANNING)
+    # per planner and labelled assembly
+    max_seconds: float | None = field(default=MISSING, metadata=PLANNING)
+    reference: str = field(default="dfs", metadata=PLANNING)
+    # grace.planning.heuristics.ContactHeuristic
+    heuristic: Any = field(default=MISSING, metadata=PLANNING)
+    # the unverified top-1's best-first bound
+    unverified_max_expansions: int | None = field(default=None, metadata=PLANNING)
 
 
 def run(cfg: DictConfig) -> float | None:

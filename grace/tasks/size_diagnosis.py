@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import json
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from hydra.utils import instantiate
@@ -35,6 +35,7 @@ from grace.model.checkpoints import load_model
 from grace.model.grace_pyg import pyg_layers
 from grace.model.kept import find_checkpoint
 from grace.model.scoring import make_scorer
+from grace.roles import PLANNING
 from grace.visualisation.size_diagnosis import size_diagnosis_figure
 
 log = logging.getLogger(__name__)
@@ -44,12 +45,18 @@ log = logging.getLogger(__name__)
 class SizeDiagnosisSettings(TaskSettings):
     """Schema of `task=size_diagnosis` (values in grace/conf/task/size_diagnosis.yaml)."""
 
-    ckpt: str | None = MISSING  # an experiment run folder (or a fold's .ckpt inside one)
-    fold: int = 0  # which fold's model, and whose held-out assemblies
-    sizes: list[int] | None = None  # sizes to diagnose (None: every size of the data set)
-    per_size: int = 30  # held-out assemblies per size, at most
-    states_per_assembly: int = 32  # states per assembly whose activations are measured
-    threshold: float = 0.5  # λ drawn in the figure, and the share of scores at or above it
+    # an experiment run folder (or a fold's .ckpt inside one)
+    ckpt: str | None = field(default=MISSING, metadata=PLANNING)
+    # which fold's model, and whose held-out assemblies
+    fold: int = field(default=0, metadata=PLANNING)
+    # sizes to diagnose (None: every size of the data set)
+    sizes: list[int] | None = field(default=None, metadata=PLANNING)
+    # held-out assemblies per size, at most
+    per_size: int = field(default=30, metadata=PLANNING)
+    # states per assembly whose activations are measured
+    states_per_assembly: int = field(default=32, metadata=PLANNING)
+    # λ drawn in the figure, and the share of scores at or above it
+    threshold: float = field(default=0.5, metadata=PLANNING)
 
 
 def _check_same_data(kept: DictConfig, cfg: DictConfig, counts: dict[int, int]) -> None:

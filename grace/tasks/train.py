@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -24,6 +24,7 @@ from grace.evaluation.protocols import split_assemblies
 from grace.evaluation.step_states import state_scores
 from grace.model.grace_pyg import count_parameters
 from grace.model.scoring import make_scorer
+from grace.roles import WEIGHTS
 
 log = logging.getLogger(__name__)
 
@@ -32,9 +33,10 @@ log = logging.getLogger(__name__)
 class TrainSettings(TaskSettings):
     """Schema of `task=train` (values in grace/conf/task/train.yaml)."""
 
-    fit: Any = MISSING  # (cfg, train, val, out_dir) -> trained module, a partial
-    test_fraction: float = MISSING
-    val_fraction: float = MISSING
+    # (cfg, train, val, out_dir) -> trained module, a partial
+    fit: Any = field(default=MISSING, metadata=WEIGHTS)
+    test_fraction: float = field(default=MISSING, metadata=WEIGHTS)
+    val_fraction: float = field(default=MISSING, metadata=WEIGHTS)
 
 
 def _finite(x: float) -> float | None:

@@ -12,6 +12,7 @@ import pytest
 from omegaconf import OmegaConf
 
 from grace import CONF_DIR
+from grace.cli.key_roles import config_package, schema_mounts
 from grace.cli.ranges import RANGES, SEED_MAX, Range
 from grace.cli.schemas import RootConfig, heavy_schemas, light_schemas
 from grace.cli.values import check_ranges
@@ -19,29 +20,8 @@ from grace.errors import UserError
 from grace.simulation.cell_config import CellConfig, GeneratorConfig, SimulatorConfig
 
 
-def _package(path: Path) -> str:
-    """The config key a YAML file of the config tree sits at (its group, or its @package)."""
-    first = path.read_text().splitlines()[:1]
-    if first and first[0].startswith("# @package"):
-        package = first[0].split()[-1]
-        return "" if package == "_global_" else package
-    return ".".join(path.relative_to(CONF_DIR).parent.parts)
-
-
 def _join(*parts: str) -> str:
     return ".".join(p for p in parts if p)
-
-
-def schema_mounts() -> dict[str, str]:
-    """`<group>/<name>` of each schema → the config key its node sits at, read from the YAML
-    files that extend it (`- /schema/<group>/<name>@<package>`)."""
-    found = {}
-    for path in CONF_DIR.rglob("*.yaml"):
-        for entry in OmegaConf.load(path).get("defaults", None) or []:
-            if isinstance(entry, str) and entry.startswith("/schema/"):
-                schema, _, package = entry.removeprefix("/schema/").partition("@")
-                found[schema] = _join(_package(path), "" if package == "_here_" else package)
-    return found
 
 
 def _numeric(hint: object) -> bool:
@@ -97,7 +77,7 @@ def yaml_numbers() -> dict[str, list[tuple[Path, object]]]:
                 out.setdefault(key, []).append((path, node))
 
     for path in CONF_DIR.rglob("*.yaml"):
-        walk(OmegaConf.to_container(OmegaConf.load(path)), _package(path), path)
+        walk(OmegaConf.to_container(OmegaConf.load(path)), config_package(path), path)
     return out
 
 

@@ -20,13 +20,13 @@ Writes `bench.json` into the run's output folder and returns the fast/PyG traini
 
 `task.profile=true` instead trains `task.profile_epochs` epochs of the experiment's first fold
 on the configured data and model and writes where their time goes (grace/model/profiling.py)
-to `profile.json` (grace/cli/epoch_profile.py).
+to `profile.json` (grace/tasks/bench/epoch_profile.py).
 """
 
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -34,7 +34,6 @@ import torch
 from hydra.utils import instantiate
 from omegaconf import MISSING, DictConfig
 
-from grace.cli.epoch_profile import profile_epochs
 from grace.cli.runner import TaskSettings
 from grace.data.atomic import strict_json, write_json_atomic, write_text_atomic
 from grace.evaluation.baselines import BASELINES
@@ -51,6 +50,8 @@ from grace.model.grace_pyg import count_parameters
 from grace.model.impls import FastImpl, NetImpl, PygImpl
 from grace.model.scoring import make_scorer
 from grace.planning.bench import planner_benchmark
+from grace.roles import RUN
+from grace.tasks.bench.epoch_profile import profile_epochs
 
 log = logging.getLogger(__name__)
 
@@ -62,15 +63,15 @@ IMPLS: tuple[NetImpl, ...] = (PygImpl(), FastImpl())
 class BenchSettings(TaskSettings):
     """Schema of `task=bench` (values in grace/conf/task/bench.yaml)."""
 
-    train_size: int = MISSING
-    infer_size: int = MISSING
-    assemblies: int = MISSING
-    train_steps: int = MISSING
-    infer_calls: int = MISSING
-    prefix_passes: int = MISSING
-    compile_backend: str | None = MISSING
-    profile: bool = MISSING
-    profile_epochs: int = MISSING
+    train_size: int = field(default=MISSING, metadata=RUN)
+    infer_size: int = field(default=MISSING, metadata=RUN)
+    assemblies: int = field(default=MISSING, metadata=RUN)
+    train_steps: int = field(default=MISSING, metadata=RUN)
+    infer_calls: int = field(default=MISSING, metadata=RUN)
+    prefix_passes: int = field(default=MISSING, metadata=RUN)
+    compile_backend: str | None = field(default=MISSING, metadata=RUN)
+    profile: bool = field(default=MISSING, metadata=RUN)
+    profile_epochs: int = field(default=MISSING, metadata=RUN)
 
 
 def run(cfg: DictConfig) -> float:

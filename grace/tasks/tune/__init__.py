@@ -19,7 +19,7 @@ import logging
 import math
 import random
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -34,10 +34,11 @@ from optuna_integration import PyTorchLightningPruningCallback
 from grace.cli.determinism import seed_all
 from grace.cli.folds import protocol_folds
 from grace.cli.runner import TaskSettings, task_overrides
-from grace.cli.tune_report import write_report
 from grace.cli.tune_space import Param, parse_space, suggest, trial_config
 from grace.domain.sample import LabelledAssembly
 from grace.errors import UserError
+from grace.roles import WEIGHTS
+from grace.tasks.tune.tune_report import write_report
 
 log = logging.getLogger(__name__)
 
@@ -46,8 +47,10 @@ log = logging.getLogger(__name__)
 class TuneSettings(TaskSettings):
     """Schema of `task=tune` (values in grace/conf/task/tune.yaml; the study in `tune`)."""
 
-    fit: Any = MISSING  # (cfg, train, val, out_dir, callbacks) -> trained module, a partial
-    data_seed: int = MISSING  # the generated data set's seed: the selection data set
+    # (cfg, train, val, out_dir, callbacks) -> trained module, a partial
+    fit: Any = field(default=MISSING, metadata=WEIGHTS)
+    # the generated data set's seed: the selection data set
+    data_seed: int = field(default=MISSING, metadata=WEIGHTS)
 
 
 class KeptMetric(pl.Callback):
