@@ -4,8 +4,8 @@ For each fold of the chosen protocol (docs/protocols.md) it trains one model, pl
 assembly with Algorithm 1 over distinct states and computes the metrics of docs/metrics.md per
 test size, for GRACE, for the baselines and for the floors on the same test assemblies. Writes
 results.json, results.md, pr_curves.png, p_at_k.png, failures.json and failures.png into the run
-folder, flags collapsed folds, and returns the mean sequence AUC
-over the test sizes (the sweep objective).
+folder, flags collapsed folds, and returns the mean sequence AUC over the test sizes (the sweep
+objective).
 """
 
 from __future__ import annotations
@@ -163,8 +163,6 @@ def run(cfg: DictConfig) -> float:
     load_s = time.perf_counter() - start
     fold_results = run_folds(cfg, data, folds, run_fold)
     per_fold = {name: [r.metrics[name] for r in fold_results] for name in fold_results[0].metrics}
-    train_s = [r.train_s for r in fold_results]
-    evaluate_s = [r.evaluate_s for r in fold_results]
     per_size = aggregate(per_fold["GRACE"])
     baselines = {b: PolicyResults(aggregate(per_fold[b])) for b in cfg.task.baselines}
     health = TypeAdapter(list[FoldHealth]).validate_python([r.health for r in fold_results])
@@ -176,7 +174,9 @@ def run(cfg: DictConfig) -> float:
         per_size=per_size,
         baselines=baselines,
         seconds=time.perf_counter() - start,
-        seconds_by_stage=StageSeconds(load_s, train_s, evaluate_s),
+        seconds_by_stage=StageSeconds(
+            load_s, [r.train_s for r in fold_results], [r.evaluate_s for r in fold_results]
+        ),
         collapsed_folds=[h.fold for h in health if h.collapsed],
         fold_health=health,
         run=RunInfo(
