@@ -144,10 +144,9 @@ def run_fold(
     settings = RecordingSettings(**cfg.task.recording)
     records = []
     if settings.per_size > 0:  # sequences.rrd (docs/recordings.md)
-        simulator = instantiate(cfg.simulator)
         records = fold_views(
-            policies["GRACE"], test, simulator, settings.per_size, settings.top_k,
-            settings.truth_orders, fold.index,
+            policies["GRACE"], test, instantiate(cfg.simulator), settings.per_size,
+            settings.top_k, settings.truth_orders, fold.index,
         )  # fmt: skip
     evaluate_s = time.perf_counter() - tick
     progress.done(train_s, evaluate_s)
