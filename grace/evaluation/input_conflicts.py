@@ -10,20 +10,26 @@ the best any function of the input reaches is the share of steps that carry the 
 of their input (the Bayes ceiling of that set's empirical distribution).
 
 Tensors are compared byte for byte (float32 as the network gets them), not rounded.
+
+The graph holds the assembly's relative geometry only, so the same assembly moved on the table
+has the same input, while the cell (the arms' reach and links) may label it otherwise:
+:func:`move_conflicts` relabels moved copies with the simulator and counts the steps whose label
+the move changes, conflicts that a data set drawn without such copies never shows.
 """
 
 from __future__ import annotations
 
 import hashlib
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
+from grace.domain.assembly import Assembly, Part
 from grace.domain.sample import LabelledAssembly
 from grace.errors import UserError
 from grace.graphs.assembly_graph import AssemblyTensors, encode_assembly
-from grace.graphs.datamodule import StateSet, training_states
+from grace.graphs.datamodule import StateSet, state_masks, training_states
 from grace.graphs.encoding import GraphEncoding
 
 _PART_BITS = 5  # candidate index: parts below 32 (the simulator's max_parts is 20)
@@ -165,4 +171,42 @@ def add_counts(counts: Sequence[dict[str, float]]) -> dict[str, float]:
     out["ceiling_on_conflicts"] = (
         out.get("ceiling_hits_on_conflicts", 0) / conflicts if conflicts else 1.0
     )
+    return out
+
+
+def moved(assembly: Assembly, dx: float, dy: float) -> Assembly:
+    """`assembly` moved by (dx, dy) mm on the table: the same relative geometry elsewhere in
+    the cell."""
+    parts = []
+    for part in assembly.parts:
+        pose = part.pose.copy()
+        pose[:2, 3] += (dx, dy)
+        parts.append(Part(part.name, part.type, pose))
+    return Assembly(tuple(parts), assembly.name)
+
+
+def move_conflicts(
+    keys: InputKeys,
+    sample: LabelledAssembly,
+    label: Callable[[Assembly], LabelledAssembly],
+    moves: Sequence[Sequence[float]],
+    states: StateSet | str,
+) -> dict[str, float]:
+    """Counts over copies of `sample` moved by each of `moves` and labelled by `label` (the
+    simulator): copies whose input equals the original's (the graph holds relative geometry
+    only), and on those, the steps of either's training states (`states`) with the same input
+    and another label, the equal-input steps compared, and the copies whose feasibility differs."""
+    out = {"moved": 0, "same_input": 0, "steps": 0, "label_changes": 0, "feasibility_flips": 0}
+    for dx, dy in moves:
+        copy = label(moved(sample.assembly, dx, dy))
+        out["moved"] += 1
+        if keys.input_id(copy) != keys.input_id(sample):
+            continue
+        chosen = np.union1d(training_states(sample, states)[0], training_states(copy, states)[0])
+        before = keys.steps(sample, chosen, state_masks(sample.truth, chosen)[0])
+        after = keys.steps(copy, chosen, state_masks(copy.truth, chosen)[0])
+        out["same_input"] += 1
+        out["steps"] += len(before)
+        out["label_changes"] += int((before.label != after.label).sum())
+        out["feasibility_flips"] += int(sample.truth.feasible != copy.truth.feasible)
     return out

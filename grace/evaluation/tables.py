@@ -197,6 +197,16 @@ INPUT_CONFLICT_ROWS = (
 )
 """The rows of `task=input_conflicts`'s table: (part of the report, count, label, format)."""
 
+MOVE_ROWS = (
+    ("moved", "moved copies", ",.0f"),
+    ("same_input", "… of the original's input", ",.0f"),
+    ("feasibility_flips", "… of another feasibility", ",.0f"),
+    ("steps", "steps compared", ",.0f"),
+    ("label_changes", "… whose label the move changes", ",.0f"),
+    ("ceiling", "Bayes ceiling on original and moved steps", ".4f"),
+)
+"""The rows of the moved copies (`task.moves`): (count, label, format)."""
+
 
 def input_conflicts_table(report: Mapping[str, Any]) -> str:
     """What `task=input_conflicts` measured (its input_conflicts.json) as one markdown table:
@@ -212,4 +222,9 @@ def input_conflicts_table(report: Mapping[str, Any]) -> str:
     ]
     distinct = [f"{report['distinct_inputs'][s]} / {report['assemblies'][s]}" for s in sizes]
     rows.append(["distinct inputs / assemblies", *distinct])
+    moves = report.get("moves", {})
+    for key, label, fmt in MOVE_ROWS if moves else ():
+        rows.append(
+            [label, *("–" if s not in moves else format(moves[s][key], fmt) for s in sizes)]
+        )
     return markdown_table(["", *(f"A{s}" for s in sizes)], rows)

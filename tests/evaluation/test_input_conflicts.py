@@ -3,10 +3,22 @@ steps, with the Bayes ceiling a majority vote reaches."""
 
 import copy
 
+import numpy as np
 import pytest
 
+from grace.domain.orders import GroundTruth
+from grace.domain.sample import LabelledAssembly
 from grace.errors import UserError
-from grace.evaluation.input_conflicts import InputKeys, Steps, add_counts, against_training, within
+from grace.evaluation.input_conflicts import (
+    InputKeys,
+    Steps,
+    add_counts,
+    against_training,
+    move_conflicts,
+    moved,
+    within,
+)
+from grace.graphs.datamodule import state_masks
 from grace.graphs.encoding import GraphEncoding
 
 
@@ -49,3 +61,27 @@ def test_placed_parts_are_no_candidates(samples):
 def test_a_randomised_encoding_is_refused():
     with pytest.raises(UserError, match=r"model\.graph"):
         InputKeys(GraphEncoding(pe="random"))
+
+
+def test_a_move_keeps_the_input_and_counts_the_labels_it_changes(samples):
+    keys = InputKeys(GraphEncoding())
+    frame = samples[0]  # the bracket needs both profiles placed
+    same = add_counts(
+        [
+            move_conflicts(
+                keys, frame, lambda a: LabelledAssembly(a, frame.truth), [[50.0, 0.0]], "reachable"
+            )
+        ]
+    )
+    assert same["moved"] == same["same_input"] == 1 and same["label_changes"] == 0
+    # elsewhere in the cell the bracket could go first: its steps change label, not their input
+    loose = GroundTruth.explore(3, lambda state, part: True)
+    changed = move_conflicts(
+        keys, frame, lambda a: LabelledAssembly(a, loose), [[0.0, -50.0]], "reachable"
+    )
+    states = np.union1d(frame.truth.states[:-1], loose.states[:-1])
+    before, after = state_masks(frame.truth, states)[0], state_masks(loose, states)[0]
+    expected = int(np.bitwise_count((before ^ after) & ~states & 0b111).sum())
+    assert changed["label_changes"] == expected > 0
+    assert changed["feasibility_flips"] == 0  # both still complete
+    assert moved(frame.assembly, 0.0, -50.0).parts[0].xy == (0.0, -50.0)
