@@ -46,6 +46,7 @@ from grace.cli.schemas import register_schemas
 from grace.domain.assembly import Assembly, Part, PartType, canonical_order, planar_pose
 from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
+from grace.simulation.cell_config import CellConfig, typed
 
 if int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1")) > 1:
     # One intra-op thread per worker (and per process a test starts): two workers of two
@@ -160,6 +161,15 @@ class FakeSimulator:
 def fake_simulator() -> DictConfig:
     """A `simulator` config that instantiates :class:`FakeSimulator`."""
     return OmegaConf.create({"_target_": f"{MODULE_ALIAS}.FakeSimulator", "spacing": 250.0})
+
+
+@pytest.fixture(scope="session")
+def default_cell() -> CellConfig:
+    """The default world's cell (grace/conf/simulator/cell/iiwa14_dual.yaml), typed as the
+    simulator types it: what `model.graph.cell` receives from `${simulator.cell}`."""
+    values = OmegaConf.load(CONF_DIR / "simulator" / "cell" / "iiwa14_dual.yaml")
+    del values["defaults"]
+    return typed(CellConfig, values, "cell")
 
 
 def bracket_frame() -> LabelledAssembly:

@@ -123,6 +123,9 @@ RANGES: dict[str, Range] = {
     "model.net.pair_readout": at_least(0, "the relational readout's width; 0: none"),
     "model.net.readout_rounds": at_least(1, "rounds of the relational readout"),
     "model.net.pair_geometry": at_least(0, "the pair geometry MLP's width; 0: none"),
+    "model.net.extra_part_features": at_least(
+        0, "part-node inputs beyond the paper's (model.graph.cell); 0: none"
+    ),
     "model.graph.pe_dim": at_least(1, "features of a positional encoding"),
     "model.graph.distance_scale": above(
         0, "millimetres per unit of a surface distance fed to the network", 100
@@ -220,6 +223,8 @@ RANGES: dict[str, Range] = {
     "task.unverified_max_expansions": at_least(1, "prefixes the unbounded listing expands"),
     "task.sizes": SIZE,
     "task.per_size": at_least(1, "assemblies per size"),
+    "task.moved_per_size": at_least(1, "assemblies per size moved by each shift"),
+    "task.moves": Range(-1000, 1000, "a shift on the table in millimetres", example=50),
     "task.states_per_assembly": at_least(1, "states per assembly"),
     "task.test_fraction": Range(
         0, 1, "the share of each size held out for testing", open_high=True

@@ -181,3 +181,50 @@ def size_diagnosis_table(report: Mapping[str, Any]) -> str:
         ratio = f"{top / ref:.2f}" if top is not None and ref else "–"
         rows.append([f"`{term}`", *(_share(m) for m in means), ratio])
     return markdown_table(head, rows)
+
+
+INPUT_CONFLICT_ROWS = (
+    ("test", "steps", "test steps", ",.0f"),
+    ("test", "seen_in_training", "… with a training step of equal input", ",.0f"),
+    ("test", "label_conflicts", "… of another label", ",.0f"),
+    ("test", "ceiling", "Bayes ceiling on the test steps", ".4f"),
+    ("test", "ceiling_on_conflicts", "… on those of another label", ".4f"),
+    ("within", "steps", "all steps", ",.0f"),
+    ("within", "shared_input", "… sharing their input", ",.0f"),
+    ("within", "label_conflicts", "… of another label", ",.0f"),
+    ("within", "ceiling", "Bayes ceiling on all steps", ".4f"),
+    ("within", "ceiling_on_conflicts", "… on those of another label", ".4f"),
+)
+"""The rows of `task=input_conflicts`'s table: (part of the report, count, label, format)."""
+
+MOVE_ROWS = (
+    ("moved", "moved copies", ",.0f"),
+    ("same_input", "… of the original's input", ",.0f"),
+    ("feasibility_flips", "… of another feasibility", ",.0f"),
+    ("steps", "steps compared", ",.0f"),
+    ("label_changes", "… whose label the move changes", ",.0f"),
+    ("ceiling", "Bayes ceiling on original and moved steps", ".4f"),
+)
+"""The rows of the moved copies (`task.moves`): (count, label, format)."""
+
+
+def input_conflicts_table(report: Mapping[str, Any]) -> str:
+    """What `task=input_conflicts` measured (its input_conflicts.json) as one markdown table:
+    per size, the test steps against the training steps of their fold (summed over the folds),
+    then all steps of the size against each other."""
+    sizes = list(report["within"])
+    rows = [
+        [
+            label,
+            *("–" if s not in report[part] else format(report[part][s][key], fmt) for s in sizes),
+        ]
+        for part, key, label, fmt in INPUT_CONFLICT_ROWS
+    ]
+    distinct = [f"{report['distinct_inputs'][s]} / {report['assemblies'][s]}" for s in sizes]
+    rows.append(["distinct inputs / assemblies", *distinct])
+    moves = report.get("moves", {})
+    for key, label, fmt in MOVE_ROWS if moves else ():
+        rows.append(
+            [label, *("–" if s not in moves else format(moves[s][key], fmt) for s in sizes)]
+        )
+    return markdown_table(["", *(f"A{s}" for s in sizes)], rows)

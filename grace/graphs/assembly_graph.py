@@ -3,7 +3,8 @@
 Everything that does not depend on the state is computed once per assembly into
 :class:`AssemblyTensors`; a state only sets the assembled flags. :func:`state_graph` builds the
 per-state heterogeneous PyG graph the reference network consumes:
-- part nodes `[assembled-flag, part-type, PE(part-id)]` (1 + 1 + 16 = 18 features),
+- part nodes `[assembled-flag, part-type, PE(part-id)]` (1 + 1 + 16 = 18 features; with
+  `enc.cell`, beyond the paper, the cell's features of the part follow, grace.graphs.cell_features),
 - surface nodes `[surface-type, PE(surface-id)]` (1 + 16 = 17 features),
 - ("surface", "near", "surface"): the complete graph over surfaces including self loops, one edge
   feature (the relation: parallel distances divided by `distance_scale`, self loop 0),
@@ -37,7 +38,7 @@ PAIR_EDGE = ("part", "pair", "part")
 class AssemblyTensors:
     """State-independent inputs of one assembly (float32 tensors, surface order of Assembly)."""
 
-    part_static: torch.Tensor  # (N, 1 + pe_dim): part-type, PE(part-id)
+    part_static: torch.Tensor  # (N, 1 + pe_dim [+ cell]): part-type, PE(part-id), cell features
     surface_x: torch.Tensor  # (S, 1 + pe_dim): surface-type, PE(surface-id)
     relation: torch.Tensor  # (S, S): scaled relation, zero diagonal
     surface_part: torch.Tensor  # (S,) int64: owning part of every surface
@@ -96,6 +97,12 @@ def encode_assembly(
     surface_type = np.array([[int(s.type)] for s in surfaces], dtype=np.float64)
     relation = scaled_relations(assembly, enc.distance_scale, surfaces)
     part_static = np.hstack([part_type, enc.encode(part_ids, rng, enc.part_pe)])
+    if enc.cell is not None:  # beyond the paper: what the cell decides (model.graph.cell)
+        from grace.graphs.cell_features import cell_features
+
+        part_static = np.hstack(
+            [part_static, cell_features(assembly, enc.cell, enc.distance_scale)]
+        )
     surface_x = np.hstack([surface_type, enc.encode(surface_ids, rng)])
     return AssemblyTensors(
         part_static=torch.as_tensor(part_static, dtype=torch.float32),

@@ -16,14 +16,20 @@ Beyond the paper, `part_pe` may encode the part ids differently from the surface
 `pe`). `part_pe: none` is a lead for the one-to-many protocol: trained on A5, a network never
 sees the encodings of part ids 5 and 6 that every A7 graph carries, while the surface ids (which
 side of a part a surface is) stay informative at any size.
+
+Also beyond the paper, `cell` (the run's `simulator.cell`; None: the paper's graph) gives every
+part node what the cell decides beside the assembly: its clamp, its pose on the table and its
+distance from the arms (grace/graphs/cell_features.py), an oracle input that measures how much
+of the labels the graph cannot see (docs/information-ceiling.md).
 """
 
 from __future__ import annotations
 
 import functools
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import StrEnum
+from typing import Any
 
 import numpy as np
 
@@ -93,6 +99,7 @@ class GraphEncoding:
     permute_surfaces: Permute = Permute.never
     distance_scale: float = 100.0
     part_pe: PE | None = None
+    cell: Any = field(default=None, hash=False)  # a CellConfig (or its mapping), or None
 
     def __post_init__(self) -> None:
         # Plain strings (a config without its schema, or a call from code) become the enums.
@@ -100,11 +107,24 @@ class GraphEncoding:
             object.__setattr__(self, key, kind(getattr(self, key)))
         if self.part_pe is not None:
             object.__setattr__(self, "part_pe", PE(self.part_pe))
+        if self.cell is not None:
+            from grace.simulation.cell_config import CellConfig, typed
+
+            object.__setattr__(self, "cell", typed(CellConfig, self.cell, "model.graph.cell"))
         if self.distance_scale <= 0:
             raise UserError(
                 f"model.graph.distance_scale={self.distance_scale}: use a positive scale "
                 "(mm per unit)"
             )
+
+    @property
+    def extra_part_features(self) -> int:
+        """Part-node features beyond the paper's (`cell`: CELL_FEATURES, else 0)."""
+        if self.cell is None:
+            return 0
+        from grace.graphs.cell_features import CELL_FEATURES
+
+        return CELL_FEATURES
 
     @property
     def randomised(self) -> bool:

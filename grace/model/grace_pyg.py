@@ -116,6 +116,7 @@ class NetConfig:
     pool: Pool = Pool.sum
     placeable_head: bool = False
     score: Score = Score.min
+    extra_part_features: int = 0  # part-node inputs beyond the paper's (model.graph.cell)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "score", Score(self.score))  # a plain string becomes the enum
@@ -159,7 +160,7 @@ class NetConfig:
 
     @property
     def part_in(self) -> int:
-        return 2 + self.pe_dim
+        return 2 + self.pe_dim + self.extra_part_features
 
     @property
     def surface_in(self) -> int:

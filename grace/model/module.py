@@ -18,6 +18,7 @@ from lightning.pytorch.profilers import PassThroughProfiler
 from torchmetrics.functional.classification import binary_precision_recall_curve
 from torchmetrics.utilities.compute import auc
 
+from grace.errors import UserError
 from grace.graphs.batches import StateBatch
 from grace.graphs.encoding import GraphEncoding
 from grace.model.grace_pyg import GraceNet, NetConfig
@@ -72,6 +73,13 @@ class GraceModule(pl.LightningModule):
     ) -> None:
         super().__init__()
         self.save_hyperparameters(logger=False)
+        if net.extra_part_features != graph.extra_part_features:
+            raise UserError(
+                f"model.net.extra_part_features={net.extra_part_features}: the graph encoding "
+                f"gives part nodes {graph.extra_part_features} more features; fix: "
+                f"model.net.extra_part_features={graph.extra_part_features} (model=cell_oracle "
+                "sets both)"
+            )
         self.net = GraceNet(net)
         self.enc = graph
         self.impl = impl

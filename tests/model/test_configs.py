@@ -1,5 +1,6 @@
 import pytest
 import torch
+from hydra.errors import InstantiationException
 from hydra.utils import instantiate
 
 from grace import CONF_DIR
@@ -19,7 +20,12 @@ def test_every_ablation_row_has_a_config():
 
 
 # Variants beyond the paper; every other model config is the paper's network (51,701 parameters).
-EXTENDED = {"grace_state": 51_889, "grace_relational": 132_781, "grace_geometric": 137_178}
+EXTENDED = {
+    "grace_state": 51_889,
+    "grace_relational": 132_781,
+    "grace_geometric": 137_178,
+    "cell_oracle": 137_178 + 10 * 94,  # grace_geometric, 10 more part inputs to the part conv
+}
 
 
 @pytest.mark.parametrize("name", MODELS)
@@ -34,3 +40,9 @@ def test_model_configs_build_the_same_network(cfg_factory, name):
         held = GraceNet(module.net.cfg, WEIGHT_LAYERS)
     shapes = {key: tuple(w.shape) for key, w in module.net.state_dict().items()}
     assert {key: tuple(w.shape) for key, w in held.state_dict().items()} == shapes
+
+
+def test_cell_features_need_their_width_in_the_network(cfg_factory):
+    cfg = cfg_factory("model.graph.cell=${simulator.cell}")
+    with pytest.raises(InstantiationException, match=r"model\.net\.extra_part_features=0.*=10"):
+        instantiate(cfg.model)

@@ -7,6 +7,7 @@ from torch_geometric.data import Batch
 
 from grace.errors import UserError
 from grace.graphs.assembly_graph import encode_assembly, state_flags, state_graph
+from grace.graphs.cell_features import CELL_FEATURES
 from grace.graphs.dense import DenseAssemblies
 from grace.graphs.encoding import GraphEncoding
 from grace.graphs.pair_geometry import PAIR_GEOMETRY_FEATURES
@@ -61,10 +62,10 @@ def test_placeable_head_scores_both_outputs_by_the_configured_rule():
     )
 
 
-def _both_paths(samples, dtype, cfg=NetConfig()):  # noqa: B008
+def _both_paths(samples, dtype, cfg=NetConfig(), enc=GraphEncoding()):  # noqa: B008
     torch.manual_seed(0)
     net = GraceNet(cfg).to(dtype)
-    tensors = [encode_assembly(s.assembly, GraphEncoding()) for s in samples]
+    tensors = [encode_assembly(s.assembly, enc) for s in samples]
     states = [s.truth.states for s in samples]
     cast = lambda t: t.to(dtype) if t.is_floating_point() else t  # noqa: E731
     graphs = [state_graph(t, int(s)) for t, ss in zip(tensors, states, strict=True) for s in ss]
@@ -187,3 +188,14 @@ def test_a_size_free_pool_keeps_its_value_when_the_same_pairs_repeat(pool):
     neighbours (same pair features, same placed share) read as once; a sum does not."""
     torch.testing.assert_close(_readout_of_part_zero(pool, 3), _readout_of_part_zero(pool, 1))
     assert not torch.allclose(_readout_of_part_zero("sum", 3), _readout_of_part_zero("sum", 1))
+
+
+def test_cell_features_take_both_paths_alike(samples, default_cell):
+    """The oracle's part inputs (model.graph.cell) widen the part conv's input alike on both
+    paths: same logits and gradients (float64), on a batch of two sizes."""
+    enc = GraphEncoding(cell=default_cell)
+    cfg = NetConfig(pair_readout=8, pair_geometry=6, extra_part_features=CELL_FEATURES)
+    ref, fast, ref_grads, fast_grads = _both_paths(samples[:2], torch.float64, cfg, enc)
+    torch.testing.assert_close(fast, ref, atol=1e-5, rtol=0)
+    for g_ref, g_fast in zip(ref_grads, fast_grads, strict=True):
+        torch.testing.assert_close(g_fast, g_ref, atol=1e-5, rtol=0)
