@@ -175,12 +175,18 @@ def _flat(node: object, prefix: str = "") -> dict[str, object]:
     return out
 
 
+OFF = (None, False, 0, "", [], {})
+"""Values of a key that a kept run's config lacks under which it still compares equal: options
+are added switched off (e.g. `model.net.extra_part_features: 0`), as the older run was."""
+
+
 def kept_module(cfg: DictConfig, fold_dir: str | Path, validated: bool = True) -> GraceModule:
     """The module a run kept in `fold_dir` (its best checkpoint), built from `cfg.model`, so
     that keys declared `planning` or `run` (e.g. `model.net.score`, grace/roles.py) may differ
-    from the run's. The run's
-    kept config must equal `cfg` in every key that decides the weights: a checkpoint of another
-    data set, protocol, model or schedule is a UserError naming the first keys that differ.
+    from the run's. The run's kept config must equal `cfg` in every key that decides the
+    weights (a key newer than the run counts as equal while it is off, OFF): a checkpoint of
+    another data set, protocol, model or schedule is a UserError naming the first keys that
+    differ.
     `validated`: whether the fold had validation assemblies (it decides the monitor)."""
     fold_dir = Path(fold_dir)
     ckpt, kept = fold_dir / CHECKPOINT, fold_dir / KEPT_CONFIG
@@ -193,6 +199,7 @@ def kept_module(cfg: DictConfig, fold_dir: str | Path, validated: bool = True) -
     before = _flat(_results_keys(OmegaConf.to_container(read_kept_config(kept, ())), ignored))
     now = _flat(_results_keys(_resolved(fit_config(cfg, fold_dir, validated)), ignored))
     differ = sorted(k for k in before.keys() | now.keys() if before.get(k) != now.get(k))
+    differ = [k for k in differ if k in before or now[k] not in OFF]
     if differ:
         shown = ", ".join(f"{k} (kept {before.get(k)!r}, now {now.get(k)!r})" for k in differ[:3])
         raise UserError(

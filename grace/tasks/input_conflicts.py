@@ -38,6 +38,7 @@ from grace.evaluation.input_conflicts import (
     within,
 )
 from grace.evaluation.tables import input_conflicts_table
+from grace.roles import PLANNING
 
 log = logging.getLogger(__name__)
 
@@ -47,9 +48,12 @@ class InputConflictsSettings(TaskSettings):
     """Schema of `task=input_conflicts` (values in grace/conf/task/input_conflicts.yaml)."""
 
     reads: ClassVar[tuple[str, ...] | None] = ("model", "datamodule")
-    states: str = MISSING  # orders | reachable: the steps counted (the network's training states)
-    moves: list[list[float]] = field(default_factory=list)  # [dx, dy] mm shifts; [] = none
-    moved_per_size: int = 20  # assemblies per size moved by each shift
+    # orders | reachable: the steps counted (the network's training states)
+    states: str = field(default=MISSING, metadata=PLANNING)
+    # [dx, dy] mm shifts; [] = none
+    moves: list[list[float]] = field(default_factory=list, metadata=PLANNING)
+    # assemblies per size moved by each shift
+    moved_per_size: int = field(default=20, metadata=PLANNING)
 
 
 def _of_size(steps: list[Steps], data: list[LabelledAssembly], size: int) -> list[Steps]:

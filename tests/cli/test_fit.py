@@ -174,6 +174,13 @@ def test_a_kept_checkpoint_plans_again_under_another_score(cfg_factory, samples,
         kept_module(cfg_factory(*train, "experiment=selection"), tmp_path / "run")
     with pytest.raises(UserError, match=r"no checkpoints/best\.ckpt"):
         kept_module(cfg_factory(*train), tmp_path / "nowhere")
+    # a key newer than the run compares equal while it is off, and refuses when it is on
+    kept = OmegaConf.load(tmp_path / "run" / "config.yaml")
+    del kept.model.net["extra_part_features"]
+    OmegaConf.save(kept, tmp_path / "run" / "config.yaml")
+    kept_module(cfg_factory(*train), tmp_path / "run")
+    with pytest.raises(UserError, match=r"extra_part_features \(kept None, now 10\)"):
+        kept_module(cfg_factory(*train, "model.net.extra_part_features=10"), tmp_path / "run")
     # a run kept before the score was a key planned with the geometric mean: task=plan keeps it
     kept = OmegaConf.load(tmp_path / "run" / "config.yaml")
     del kept.model.net["score"]
