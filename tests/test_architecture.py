@@ -210,8 +210,8 @@ def test_no_other_layer_nor_its_tests_imports_a_task_module():
 CONFIG_READERS = {
     "grace.simulation.cell_config": "the simulator's own typed config (cell, generator), its "
     "schemas registered with Hydra and checked by OmegaConf",
-    "grace.simulation.bench": "`python -m grace.simulation.bench`: composes the simulator "
-    "config it times (the world's benchmark, run without a task)",
+    "grace.simulation.world_timing": "`python -m grace.simulation.world_timing`: composes the "
+    "simulator config it times (the world's benchmark, run without a task)",
     "grace.simulation.reference": "`python -m grace.simulation.reference`: composes the "
     "simulator config it checks against the uncached MuJoCo reference",
     "grace.data.store": "rebuilds the simulator in each worker process from its config node "

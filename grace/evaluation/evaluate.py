@@ -29,7 +29,7 @@ from grace.evaluation.failures import (
     failure_histogram,
     first_false_steps,
 )
-from grace.evaluation.feasibility import PLANNING_SCHEMES, planning_scores, scheme_summary
+from grace.evaluation.feasibility_schemes import PLANNING_SCHEMES, planning_scores, scheme_summary
 from grace.evaluation.metrics import (
     LAMBDAS,
     feasibility_confusion,
@@ -55,9 +55,10 @@ from grace.planning.topk import completion_bounds, table_scores, top_k
 class AssemblyEval:
     """What one assembly contributes to the metrics of its size.
 
-    `feasibility_scores` holds one score per planning scheme (grace/evaluation/feasibility.py):
-    `sequences` (how many complete sequences Algorithm 1 retrieves at λ), `best_sequence`
-    (probability of the most probable complete sequence), `bottleneck` (its best lowest step).
+    `feasibility_scores` holds one score per planning scheme
+    (grace/evaluation/feasibility_schemes.py): `sequences` (how many complete sequences
+    Algorithm 1 retrieves at λ), `best_sequence` (probability of the most probable complete
+    sequence), `bottleneck` (its best lowest step).
     """
 
     size: int

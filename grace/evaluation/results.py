@@ -91,7 +91,7 @@ class Confusion:
 
 @dataclass
 class SchemeSummary:
-    """One feasibility scheme (grace/evaluation/feasibility.py)."""
+    """One feasibility scheme (grace/evaluation/feasibility_schemes.py)."""
 
     __pydantic_config__ = CONFIG
     roc_auc: Stat

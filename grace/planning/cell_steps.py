@@ -13,7 +13,7 @@ import numpy as np
 from grace.domain.assembly import Assembly
 from grace.planning.step_checks import BlockerSteps
 from grace.simulation.check import OrderChecker
-from grace.simulation.feasibility import OptionTable
+from grace.simulation.ground_truth import OptionTable
 from grace.simulation.simulator import Simulator
 
 

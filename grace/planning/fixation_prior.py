@@ -19,7 +19,7 @@ from functools import cached_property
 import numpy as np
 
 from grace.domain.assembly import Assembly, mask_to_parts
-from grace.simulation.feasibility import Fixation
+from grace.simulation.ground_truth import Fixation
 from grace.simulation.joints import touching
 
 

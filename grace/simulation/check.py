@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 from grace.domain.assembly import Assembly
 from grace.simulation.explain import Block, Verdict, explain
-from grace.simulation.feasibility import Fixation
+from grace.simulation.ground_truth import Fixation
 from grace.simulation.joints import touching
 from grace.simulation.robot_cell import CellPose, PlacementOption
 from grace.simulation.simulator import Simulator

@@ -14,7 +14,7 @@ import numpy as np
 from grace.domain.assembly import mask_to_parts
 from grace.domain.motion import Motion
 from grace.simulation.cell_config import RULES
-from grace.simulation.feasibility import Fixation
+from grace.simulation.ground_truth import Fixation
 from grace.simulation.robot_cell import BODIES, KINDS, RULE_OF_BODY, PlacementOption, category
 
 _BODY_NAMES = {

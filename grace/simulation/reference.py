@@ -28,7 +28,7 @@ import numpy as np
 from grace.domain.assembly import PROFILE_SECTION_MM, Assembly
 from grace.domain.motion import Motion
 from grace.domain.orders import GroundTruth
-from grace.simulation.feasibility import Fixation
+from grace.simulation.ground_truth import Fixation
 from grace.simulation.joints import (
     Connector,
     EndJoint,

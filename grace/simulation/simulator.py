@@ -19,7 +19,7 @@ from grace.domain.motion import Motion
 from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
 from grace.errors import UserError
-from grace.simulation import feasibility
+from grace.simulation import ground_truth
 from grace.simulation.cell_config import CONFIG_DIR, RULES, MotionConfig, typed
 from grace.simulation.explain import Verdict, explain
 from grace.simulation.generator import StructureGenerator
@@ -95,15 +95,15 @@ class Simulator:
         motions = self.motions(assembly, scene)
         options = [self.cell.part_options(scene, p, motions[p]) for p in range(assembly.n_parts)]
         touch = touching(assembly, self.tolerance)
-        return feasibility.orders(assembly, options, touch, self.rules, first)
+        return ground_truth.orders(assembly, options, touch, self.rules, first)
 
     def label(self, assembly: Assembly) -> LabelledAssembly:
-        """All feasible orders of `assembly` and the diagnostics of feasibility.label."""
+        """All feasible orders of `assembly` and the diagnostics of ground_truth.label."""
         start = time.perf_counter()
         scene = self.cell.scene(assembly)
         motions = self.motions(assembly, scene)
         options = [self.cell.part_options(scene, p, motions[p]) for p in range(assembly.n_parts)]
-        sample = feasibility.label(
+        sample = ground_truth.label(
             assembly, options, touching(assembly, self.tolerance), self.rules
         )
         # Clamp bases' footprints (x0, y0, x1, y1 mm) per part, for pictures; [] = no clamp.
@@ -126,14 +126,16 @@ class Simulator:
         works (with only `rules` active, default this simulator's)."""
         touch = touching(assembly, self.tolerance)
         active = self.rules if rules is None else tuple(rules)
-        return feasibility.replay(assembly, order, self.cell, self.motions(assembly), touch, active)
+        return ground_truth.replay(
+            assembly, order, self.cell, self.motions(assembly), touch, active
+        )
 
     def replayed_truth(self, assembly: Assembly) -> GroundTruth:
-        """The orders `replay` lets through, every one of the N! (`feasibility.replayed_truth`):
+        """The orders `replay` lets through, every one of the N! (`ground_truth.replayed_truth`):
         equal to `label(assembly).truth` when the cached labels are right."""
         touch = touching(assembly, self.tolerance)
         motions = self.motions(assembly)
-        return feasibility.replayed_truth(assembly, self.cell, motions, touch, self.rules)
+        return ground_truth.replayed_truth(assembly, self.cell, motions, touch, self.rules)
 
     def explain(self, assembly: Assembly, placed: int, part: int) -> Verdict:
         """Why `part` can or cannot be placed once the parts of bitmask `placed` are
@@ -141,7 +143,7 @@ class Simulator:
         grasp, motion), what blocks it. A few milliseconds: one part's cell queries."""
         motions = self.motions(assembly)
         options = self.cell.placement_options(assembly, part, motions[part])
-        fixation = feasibility.Fixation.of(assembly, touching(assembly, self.tolerance))
+        fixation = ground_truth.Fixation.of(assembly, touching(assembly, self.tolerance))
         return explain(part, placed, options, motions[part], fixation, self.rules)
 
     def pose(self, assembly: Assembly, placed: int, part: int) -> CellPose | None:

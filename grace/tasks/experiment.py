@@ -27,11 +27,10 @@ from grace.cli.folds import protocol_folds, run_folds, start_fold
 from grace.cli.progress import FoldReporter
 from grace.cli.runner import TaskSettings, task_overrides
 from grace.domain.sample import LabelledAssembly
-from grace.evaluation.analysis import write_analysis
 from grace.evaluation.baselines import BASELINES
 from grace.evaluation.collapse import fold_health
 from grace.evaluation.evaluate import evaluate_by_size
-from grace.evaluation.feasibility import add_schemes, embedding_schemes
+from grace.evaluation.feasibility_schemes import add_schemes, embedding_schemes
 from grace.evaluation.protocols import Fold, training_subset
 from grace.evaluation.report import aggregate, mean_curves, write_results
 from grace.evaluation.results import (
@@ -41,13 +40,14 @@ from grace.evaluation.results import (
     RunInfo,
     StageSeconds,
 )
+from grace.evaluation.side_files import write_side_files
 from grace.planning.plan_views import PlanView, fold_views
 from grace.planning.sequences import Scorer
 from grace.roles import PLANNING, RUN, WEIGHTS
-from grace.visualisation.analysis import draw_analysis
 from grace.visualisation.plots import p_at_k_bars, pr_curves
 from grace.visualisation.recording import write_recording
 from grace.visualisation.records import RecordingSettings
+from grace.visualisation.side_file_plots import draw_side_files
 
 log = logging.getLogger(__name__)
 
@@ -185,7 +185,7 @@ def run(cfg: DictConfig) -> float:
             overrides=task_overrides(),
         ),
     )
-    draw_analysis(write_analysis(per_fold["GRACE"], out_dir), out_dir)
+    draw_side_files(write_side_files(per_fold["GRACE"], out_dir), out_dir)
     pr_curves({name: mean_curves(f) for name, f in per_fold.items()}, out_dir / "pr_curves.png")
     p_at_k_bars(results.policies(), out_dir / "p_at_k.png")
     records = [record for r in fold_results for record in r.records]

@@ -2,7 +2,7 @@
 
 Per fold of the protocol: train GRACE on the training folds and, with `task.feasible_only`, a
 second GRACE on their feasible assemblies only; then score every scheme of
-grace/evaluation/feasibility.py on the fold's test assemblies: the planning schemes of both
+grace/evaluation/feasibility_schemes.py on the fold's test assemblies: the planning schemes of both
 models, the classifiers of `task.classifiers` on the first model's pooled embeddings, and the
 densities of `task.densities` on each model's embeddings of feasible training assemblies.
 Writes feasibility.json, feasibility_roc.png and results.md; returns the mean ROC AUC of the
@@ -30,7 +30,7 @@ from grace.data.atomic import write_json_atomic, write_text_atomic
 from grace.domain.sample import LabelledAssembly
 from grace.evaluation.baselines import constant_scorer
 from grace.evaluation.collapse import fold_health, state_step_auc
-from grace.evaluation.feasibility import (
+from grace.evaluation.feasibility_schemes import (
     add_schemes,
     embedding_schemes,
     feasibility_report,
@@ -42,7 +42,7 @@ from grace.evaluation.results import FoldHealth, SchemeSummary
 from grace.planning.sequences import Scorer
 from grace.roles import PLANNING, WEIGHTS
 from grace.tasks.experiment import ExperimentSettings
-from grace.visualisation.analysis import feasibility_roc
+from grace.visualisation.side_file_plots import feasibility_roc
 
 log = logging.getLogger(__name__)
 
@@ -155,7 +155,7 @@ def run(cfg: DictConfig) -> float:
             f"# Feasibility: protocol {cfg.protocol.name}",
             f"Train sizes {train_sizes}, test sizes {test_sizes}, {len(folds)}-fold "
             "cross-validation; ROC AUC mean ± std over folds / TPR at FPR ≤ 0.05 (fold mean). "
-            "Positive = feasible; schemes in grace/evaluation/feasibility.py.",
+            "Positive = feasible; schemes in grace/evaluation/feasibility_schemes.py.",
             feasibility_table(schemes, sizes),
             "## Folds",
             health_lines(health),

@@ -8,14 +8,14 @@ from sklearn.metrics import roc_auc_score
 from sklearn.mixture import GaussianMixture
 
 from grace.evaluation.density import FlowDensity
-from grace.evaluation.feasibility import (
+from grace.evaluation.feasibility_classifier import pooled_embeddings
+from grace.evaluation.feasibility_schemes import (
     MIN_DENSITY_FIT,
     add_schemes,
     embedding_schemes,
     feasibility_report,
     scheme_summary,
 )
-from grace.evaluation.feasibility_classifier import pooled_embeddings
 
 pytestmark = pytest.mark.numerics  # asserts on float results of torch arithmetic (.ci/kernels)
 

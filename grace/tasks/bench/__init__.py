@@ -9,7 +9,7 @@ Side by side in one run, same weights, `cfg.threads` threads:
   per-assembly cache that planning over many states of one assembly enjoys (fast path only;
   the PyG path has no shared work); with `task.compile_backend` also the fast path through
   torch.compile (model/impl=compiled), beside the seconds its first calls spent compiling;
-- planning (grace.planning.bench): scoring every order of one A7 assembly via its
+- planning (grace.planning.prefix_cost): scoring every order of one A7 assembly via its
   distinct states versus the per-prefix recursion, with each path's scorer (untrained weights:
   timing only; prefix passes capped at `task.prefix_passes` and extrapolated);
 - evaluation (grace.evaluation.evaluate): milliseconds per A7 assembly of everything an
@@ -37,19 +37,19 @@ from omegaconf import MISSING, DictConfig
 from grace.cli.runner import TaskSettings
 from grace.data.atomic import strict_json, write_json_atomic, write_text_atomic
 from grace.evaluation.baselines import BASELINES
-from grace.evaluation.bench import evaluate_ms_per_assembly
+from grace.evaluation.evaluation_timing import evaluate_ms_per_assembly
 from grace.graphs.datamodule import StateDataset
-from grace.model.bench import (
+from grace.model.grace_pyg import count_parameters
+from grace.model.impls import FastImpl, NetImpl, PygImpl
+from grace.model.scoring import make_scorer
+from grace.model.timing import (
     compiled_inference,
     feasible_assemblies,
     infer_ms_per_state,
     inference_table,
     train_graphs_per_s,
 )
-from grace.model.grace_pyg import count_parameters
-from grace.model.impls import FastImpl, NetImpl, PygImpl
-from grace.model.scoring import make_scorer
-from grace.planning.bench import planner_benchmark
+from grace.planning.prefix_cost import planner_benchmark
 from grace.roles import RUN
 from grace.tasks.bench.epoch_profile import profile_epochs
 

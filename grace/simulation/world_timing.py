@@ -1,7 +1,7 @@
 """Figures of the world (docs/world.md): ground-truth time per size and reach coverage; not tests.
 
-Run `python -m grace.simulation.bench [sizes] [assemblies] [simulator]` from the repository root,
-e.g. `python -m grace.simulation.bench 7,10,12,16 20`: it composes the simulator group
+Run `python -m grace.simulation.world_timing [sizes] [assemblies] [simulator]` from the repository
+root, e.g. `python -m grace.simulation.world_timing 7,10,12,16 20`: it composes the simulator group
 (`dual_arm` unless named) and prints, per size, the median milliseconds of the cell's queries
 and of the whole ground truth (labels, ablations, mechanisms) on one core, as JSON. Time it
 under the shared CPU lock.

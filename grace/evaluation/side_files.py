@@ -11,10 +11,10 @@ from pathlib import Path
 
 from grace.data.atomic import write_json_atomic
 from grace.evaluation.failures import failures_report
-from grace.evaluation.feasibility import feasibility_report
+from grace.evaluation.feasibility_schemes import feasibility_report
 
 
-def write_analysis(per_fold: Sequence[dict[int, dict]], out_dir: Path) -> dict:
+def write_side_files(per_fold: Sequence[dict[int, dict]], out_dir: Path) -> dict:
     """Write feasibility.json and failures.json into `out_dir`; return both reports by name."""
     reports = {
         "feasibility": feasibility_report(per_fold),

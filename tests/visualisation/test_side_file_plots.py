@@ -3,10 +3,10 @@ from dataclasses import replace
 import matplotlib.image
 
 from grace.evaluation.failures import FalseStep, failure_histogram, failures_report
-from grace.evaluation.feasibility import add_schemes, feasibility_report, scheme_summary
+from grace.evaluation.feasibility_schemes import add_schemes, feasibility_report, scheme_summary
 from grace.evaluation.results import Confusion, CountedStat, FeasibilitySummary, SizeSummary
-from grace.visualisation.analysis import draw_analysis
 from grace.visualisation.plots import p_at_k_bars
+from grace.visualisation.side_file_plots import draw_side_files
 
 
 def _reports(sizes):
@@ -30,7 +30,7 @@ def _reports(sizes):
 def test_analysis_figures_get_a_panel_per_size(tmp_path):
     for sizes, folder in (([5], tmp_path / "one"), ([5, 6, 7], tmp_path / "three")):
         folder.mkdir()
-        draw_analysis(_reports(sizes), folder)
+        draw_side_files(_reports(sizes), folder)
     for name in ("feasibility_roc.png", "failures.png"):
         one = matplotlib.image.imread(tmp_path / "one" / name)
         three = matplotlib.image.imread(tmp_path / "three" / name)

@@ -81,7 +81,7 @@ def failure_histograms(report: dict, path: Path) -> None:
     save_figure(fig, Path(path))
 
 
-def draw_analysis(reports: dict, out_dir: Path) -> None:
-    """feasibility_roc.png and failures.png from the reports of grace.evaluation.analysis."""
+def draw_side_files(reports: dict, out_dir: Path) -> None:
+    """feasibility_roc.png and failures.png from the reports of grace.evaluation.side_files."""
     feasibility_roc(reports["feasibility"], Path(out_dir) / "feasibility_roc.png")
     failure_histograms(reports["failures"], Path(out_dir) / "failures.png")

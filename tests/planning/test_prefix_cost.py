@@ -1,6 +1,6 @@
 from planning_fakes import TableScorer, line_assembly
 
-from grace.planning.bench import planner_benchmark, prefix_count
+from grace.planning.prefix_cost import planner_benchmark, prefix_count
 
 
 def test_prefix_count_matches_spec():

@@ -8,7 +8,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 def test_the_world_benchmark_command_composes_its_simulator_and_reports_each_size():
     out = subprocess.run(
-        [sys.executable, "-m", "grace.simulation.bench", "3,4", "2", "boxes"],
+        [sys.executable, "-m", "grace.simulation.world_timing", "3,4", "2", "boxes"],
         cwd=ROOT,
         check=True,
         capture_output=True,
