@@ -209,3 +209,21 @@ def kept_module(cfg: DictConfig, fold_dir: str | Path, validated: bool = True) -
     module = instantiate(cfg.model)
     module.load_state_dict(checkpoint_weights(ckpt), strict=True)
     return module.eval()
+
+
+def fold_module(
+    cfg: DictConfig,
+    train: Sequence[LabelledAssembly],
+    val: Sequence[LabelledAssembly],
+    fold_dir: Path,
+    callbacks: Sequence[pl.Callback] = (),
+) -> tuple[GraceModule, Path]:
+    """A fold's model and the folder of its logs: trained by `task.fit` into `fold_dir`, or
+    with `task.checkpoints` the one that run kept in its folder of the same name (kept_module),
+    so that every cross-validated task re-plans kept folds the same way."""
+    if cfg.task.checkpoints is None:
+        return instantiate(cfg.task.fit)(
+            cfg, train, val, fold_dir, callbacks=list(callbacks)
+        ), fold_dir
+    kept = Path(cfg.task.checkpoints) / fold_dir.name
+    return kept_module(cfg, kept, validated=bool(val)), kept

@@ -22,7 +22,7 @@ from hydra.utils import instantiate
 from omegaconf import MISSING, DictConfig, OmegaConf
 from pydantic import TypeAdapter
 
-from grace.cli.fit import kept_module
+from grace.cli.fit import fold_module
 from grace.cli.folds import protocol_folds, run_folds, start_fold
 from grace.cli.progress import FoldReporter
 from grace.cli.runner import TaskSettings, task_overrides
@@ -120,11 +120,7 @@ def run_fold(
     feasible_only = cfg.task.train_feasible_only
     fit_train, fit_val = (training_subset(s, feasible_only) for s in (train, val))
     fold_dir = Path(cfg.paths.output_dir) / f"fold_{fold.index}"
-    if cfg.task.checkpoints is None:
-        module = instantiate(cfg.task.fit)(cfg, fit_train, fit_val, fold_dir, callbacks=[progress])
-    else:
-        fold_dir = Path(cfg.task.checkpoints) / f"fold_{fold.index}"
-        module = kept_module(cfg, fold_dir, validated=bool(fit_val))
+    module, fold_dir = fold_module(cfg, fit_train, fit_val, fold_dir, [progress])
     train_s = time.perf_counter() - tick
     progress.stage("evaluating")
     tick = time.perf_counter()

@@ -23,7 +23,7 @@ from hydra.utils import instantiate
 from omegaconf import MISSING, DictConfig
 from pydantic import TypeAdapter
 
-from grace.cli.fit import kept_module
+from grace.cli.fit import fold_module
 from grace.cli.folds import protocol_folds, run_folds, start_fold
 from grace.cli.progress import FoldReporter
 from grace.data.atomic import write_json_atomic, write_text_atomic
@@ -95,7 +95,7 @@ def run_fold(
     """Every scheme's per-size summary on one fold, and the health of its models (arguments as
     grace.tasks.experiment.run_fold)."""
     start_fold(cfg, fold, threads, parent)
-    fit, make_scorer = instantiate(cfg.task.fit), instantiate(cfg.task.scorer)
+    make_scorer = instantiate(cfg.task.scorer)
     out = Path(cfg.paths.output_dir)
     runs = [("", train, val, out / f"fold_{fold.index}")]
     if cfg.task.feasible_only:
@@ -115,11 +115,7 @@ def run_fold(
     for prefix, fit_train, fit_val, fold_dir in runs:
         log.info("fold %d: training %sGRACE on %d assemblies", fold.index, prefix, len(fit_train))
         tick = time.perf_counter()
-        if cfg.task.checkpoints is None:
-            module = fit(cfg, fit_train, fit_val, fold_dir, callbacks=[progress])
-        else:
-            fold_dir = Path(cfg.task.checkpoints) / fold_dir.name
-            module = kept_module(cfg, fold_dir, validated=bool(fit_val))
+        module, fold_dir = fold_module(cfg, fit_train, fit_val, fold_dir, [progress])
         seconds["train"] += time.perf_counter() - tick
         progress.stage("evaluating")
         tick = time.perf_counter()
