@@ -131,6 +131,12 @@ def test_python_m_grace_smoke_end_to_end(tmp_path):
     assert results["protocol"] == "intra" and results["folds"] == 2
     assert results["test_sizes"] == [3, 4, 5, 6, 7]
     assert (out / "results.md").exists() and (out / "pr_curves.png").exists()
+    # task.checkpoints: the kept folds planned again under another score rule, none trained
+    again = tmp_path / "again"
+    replan = [*cmd[:-2], f"hydra.run.dir={again}", cmd[-1], f"task.checkpoints={out}"]
+    subprocess.run([*replan, "model.net.score=geometric"], cwd=ROOT, check=True, timeout=300)
+    assert json.loads((again / "results.json").read_text())["folds"] == 2
+    assert not list(again.glob("fold_*/checkpoints"))
 
 
 @pytest.mark.slow  # a fast twin covers the behaviour; this one is end to end
