@@ -2,7 +2,11 @@
 adds only orders whose every step the simulator accepts, the test assemblies' ground truth is
 not read before scoring, and no drawn assembly copies a test assembly."""
 
+import json
+from pathlib import Path
+
 import numpy as np
+import pytest
 from grace_tests_conftest import accepted, fake_plan
 from hydra.utils import instantiate
 
@@ -12,6 +16,7 @@ from grace.domain.sample import LabelledAssembly
 from grace.evaluation.expert_iteration import expert_iteration
 from grace.evaluation.self_train import RoundFigures, self_train_markdown
 from grace.planning.self_labels import plan_labels
+from grace.tasks.self_train import run
 
 SIZES = {4: 6, 5: 6}
 
@@ -121,3 +126,19 @@ def test_the_round_figures_write_as_json():
     figures.test = {"8": {"p_at_1_strict": float("nan")}}
     out = figures.to_json()
     assert out["verified_share"] == 0.75 and out["test"]["8"]["p_at_1_strict"] is None
+
+
+@pytest.mark.slow  # the real simulator, two trainings, a verified search per drawn frame (2 min)
+def test_the_task_writes_its_rounds(cfg_factory):
+    cfg = cfg_factory(
+        "task=self_train", "scale=smoke", "protocol=upward", "protocol.folds=2",
+        "protocol.train_sizes=[3,4,5]", "protocol.test_sizes=[6,7]", "trainer.max_epochs=1",
+        "task.sizes={6: 2, 7: 2}", "task.rounds=1", "threads=1",
+    )  # fmt: skip
+    run(cfg)
+    out = json.loads((Path(cfg.paths.output_dir) / "self_train.json").read_text())
+    first, second = out["rounds"]
+    assert (first["drawn"], second["drawn"]) == (0, 4)
+    assert second["added"] == second["labelled"] == second["verified"] + second["infeasible"]
+    assert set(second["test"]) == {"6", "7"}
+    assert (Path(cfg.paths.output_dir) / "self_train.md").read_text().startswith("# Self-training")
