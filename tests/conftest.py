@@ -46,6 +46,7 @@ from grace.cli.schemas import register_schemas
 from grace.domain.assembly import Assembly, Part, PartType, canonical_order, planar_pose
 from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
+from grace.planning.plans import Plan, PlannedOrder, StepVerdicts
 from grace.simulation.cell_config import CellConfig, typed
 
 if int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1")) > 1:
@@ -301,3 +302,44 @@ def lock_folder() -> Iterator[Callable[[Path], Callable[[], None]]]:
     yield lock
     for folder in locked:
         _unlock(folder)
+
+
+def accepted(can_place: Callable[[int, int], bool], order: Sequence[int]) -> bool:
+    """Whether every step of `order` passes `can_place(state, part)` (e.g. FakeSimulator's
+    rules)."""
+    state = 0
+    for part in order:
+        if not can_place(state, part):
+            return False
+        state |= 1 << part
+    return True
+
+
+def _verdicts(can_place: Callable[[int, int], bool], order: Sequence[int]) -> StepVerdicts:
+    """`order`'s verdicts up to its first refused step, as a plan holds them."""
+    verdicts, state = [], 0
+    for part in order:
+        verdicts.append(bool(can_place(state, part)))
+        if not verdicts[-1]:
+            step = len(verdicts) - 1
+            return StepVerdicts(False, tuple(verdicts), step, "collision", (), "refused")
+        state |= 1 << part
+    return StepVerdicts(True, tuple(verdicts))
+
+
+def fake_plan(
+    assembly: Assembly,
+    can_place: Callable[[int, int], bool],
+    orders: Sequence[Sequence[int]],
+    outcome: str = "verified",
+) -> Plan:
+    """A checked plan (grace/planning/plans.py) listing `orders`, each checked step by step with
+    `can_place` and kept with its refused step if it has one: what self-training's labels are
+    built from, without a simulator."""
+    listed = tuple(
+        PlannedOrder(
+            rank, tuple(o), ("p",) * len(o), 0.5, (0.5,) * len(o), _verdicts(can_place, o), None
+        )
+        for rank, o in enumerate(orders, 1)
+    )
+    return Plan(assembly.name, assembly.n_parts, {"name": "fake"}, outcome, listed, 0.1)

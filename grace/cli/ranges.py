@@ -210,6 +210,8 @@ RANGES: dict[str, Range] = {
     "task.fold": FOLD,
     "task.threads": at_least(1, "torch threads of a planning task; at most the machine's cores"),
     "task.data_seed": SEED,
+    "task.draw_seed": SEED,
+    "task.rounds": at_least(0, "self-training rounds; 0: the original training set only"),
     "task.train_size": SIZE,
     "task.infer_size": SIZE,
     "task.assemblies": at_least(1, "assemblies per size"),

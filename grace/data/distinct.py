@@ -13,16 +13,18 @@ in index order, however many rounds of drawing it took.
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from typing import Any, TypeVar
 
 from grace.domain.canonical import assembly_key
-from grace.domain.sample import LabelledAssembly
 from grace.errors import UserError
 
 log = logging.getLogger(__name__)
 
-Draws = Callable[[dict[int, int]], list[LabelledAssembly]]
-"""`draws(sizes)`: the first `count` assemblies of each size of a data set, index order."""
+T = TypeVar("T")
+Draws = Callable[[dict[int, int]], list[T]]
+"""`draws(sizes)`: the first `count` assemblies of each size of a data set, index order (each
+with a `size`: labelled ones, or self-training's unlabelled draws)."""
 
 MAX_DRAWS_FACTOR = 10
 """Stop after this many times the wanted count of a size has been drawn: the other data set then
@@ -30,24 +32,28 @@ holds nearly every layout of that size, and no amount of drawing gives enough ne
 
 
 def distinct_from(
-    draws: Draws, sizes: dict[int, int], reference: list[LabelledAssembly]
-) -> list[LabelledAssembly]:
-    """The first `sizes[n]` assemblies of each size n of `draws` whose canonical form is in no
-    assembly of `reference`, sizes ascending, each in index order.
+    draws: Draws[T],
+    sizes: dict[int, int],
+    reference: Sequence[Any],
+    key: Callable[[Any], str] = assembly_key,
+) -> list[T]:
+    """The first `sizes[n]` assemblies of each size n of `draws` whose `key` (default: the
+    canonical form, ground truth included) is no assembly's of `reference`, sizes ascending,
+    each in index order.
 
     Draws more of a size, in rounds, until enough are left; UserError when a size would need more
     than `MAX_DRAWS_FACTOR` times its count.
     """
-    taken = {assembly_key(sample) for sample in reference}
+    taken = {key(sample) for sample in reference}
     drawn = dict(sizes)
     while True:
         data = draws(drawn)
-        kept: dict[int, list[LabelledAssembly]] = {n: [] for n in sizes}
+        kept: dict[int, list[T]] = {n: [] for n in sizes}
         copies = dict.fromkeys(sizes, 0)
         for sample in data:
             if len(kept[sample.size]) == sizes[sample.size]:
                 continue
-            if assembly_key(sample) in taken:
+            if key(sample) in taken:
                 copies[sample.size] += 1
             else:
                 kept[sample.size].append(sample)

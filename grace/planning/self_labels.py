@@ -1,0 +1,57 @@
+"""Training targets from a checked plan: the labels expert iteration (self-training) learns from
+(grace/tasks/self_train.py, docs/size-generalisation.md "Self-training").
+
+The verified search (grace/planning/search.py) returns orders whose every step the simulator
+accepted, and `Plan` carries each order's step verdicts (grace/planning/plans.py). The labels
+are built from those orders only, an order with any refused verdict is dropped: the ground
+truth of the label is the DAG the verified orders span (`GroundTruth.from_orders`), so its
+states are the states on the verified orders, and in each of them the parts that start a
+verified continuation are the valid next parts (label 1) and every other part is 0.
+
+That is a partial label. A refused step in such a state is a true 0 (the simulator refused the
+placement there). A part the search never tried, or whose continuation it did not finish, is
+labelled 0 too although it may well complete: the search stops at `k` orders, so at a state
+with more valid parts than the orders through it, some valid parts are taught as invalid. With
+`datamodule.states=reachable` the network also gets no dead-end states of these assemblies (the
+search's refused continuations are not in the DAG). States off the verified orders carry no
+label at all. An assembly the search proved infeasible (every order refuted by simulator
+checks, or by the precedences every order keeps) gets the infeasible label of the data set: its
+empty state, with no valid part. An assembly the search left "not found within budget" gets
+none.
+"""
+
+from __future__ import annotations
+
+from grace.domain.assembly import Assembly
+from grace.domain.orders import GroundTruth
+from grace.domain.sample import LabelledAssembly
+from grace.planning.plans import Plan
+from grace.planning.search import Outcome
+
+VERIFIED_LABELS = "verified"
+"""`info["labels"]` of a self-labelled assembly (the brute-forced ones say "brute_force")."""
+
+
+def verified_orders(plan: Plan) -> list[tuple[int, ...]]:
+    """The plan's orders whose every step the simulator accepted."""
+    return [
+        order.sequence
+        for order in plan.orders
+        if order.simulator.feasible and len(order.simulator.verdicts) == plan.n_parts
+    ]
+
+
+def plan_labels(plan: Plan, assembly: Assembly) -> LabelledAssembly | None:
+    """`assembly` labelled from its verified search's `plan` (module docstring), or None when
+    the plan has neither a verified order nor a proof of infeasibility."""
+    if plan.n_parts != assembly.n_parts:
+        raise ValueError(f"a plan of {plan.n_parts} parts for {assembly.n_parts} ({plan.name})")
+    orders = verified_orders(plan)
+    info = {"labels": VERIFIED_LABELS, "outcome": plan.outcome, "verified_orders": len(orders)}
+    if plan.search is not None:
+        info |= {"checks": plan.search.checks, "refused": plan.search.refused.count}
+    if orders:
+        return LabelledAssembly(assembly, GroundTruth.from_orders(assembly.n_parts, orders), info)
+    if plan.outcome == Outcome.infeasible:
+        return LabelledAssembly(assembly, GroundTruth.from_orders(assembly.n_parts, []), info)
+    return None
