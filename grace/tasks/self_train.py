@@ -18,7 +18,7 @@ P@1 over the test sizes.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -44,20 +44,28 @@ from grace.evaluation.self_train import RoundFigures, self_train_markdown, size_
 from grace.model.scoring import make_scorer
 from grace.planning.search import VerifiedSearch
 from grace.planning.sequences import Scorer
+from grace.roles import PLANNING, WEIGHTS
 
 
 @dataclass
 class SelfTrainSettings(TaskSettings):
     """Schema of `task=self_train` (values in grace/conf/task/self_train.yaml)."""
 
-    fit: Any = MISSING  # (cfg, train, val, out_dir, callbacks) -> trained module, a partial
-    rounds: int = MISSING  # R; 0: the original training set only
-    sizes: Any = MISSING  # size → unlabelled assemblies drawn per round
-    default_sizes: Any = None  # what `sizes` interpolates unless overridden whole
-    draw_seed: int = MISSING  # their generator seed (not the data set's `dataset.seed`)
-    labels: Labels = Labels.verified
-    fold: int = 0  # the protocol's fold: its training, validation and test assemblies
-    threshold: float = 0.5  # λ of P@1 and of "no complete sequence" (docs/metrics.md)
+    # (cfg, train, val, out_dir, callbacks) -> trained module, a partial
+    fit: Any = field(default=MISSING, metadata=WEIGHTS)
+    # R; 0: the original training set only
+    rounds: int = field(default=MISSING, metadata=WEIGHTS)
+    # size → unlabelled assemblies drawn per round
+    sizes: Any = field(default=MISSING, metadata=WEIGHTS)
+    # what `sizes` interpolates unless overridden whole
+    default_sizes: Any = field(default=None, metadata=WEIGHTS)
+    # their generator seed (not the data set's `dataset.seed`)
+    draw_seed: int = field(default=MISSING, metadata=WEIGHTS)
+    labels: Labels = field(default=Labels.verified, metadata=WEIGHTS)
+    # the protocol's fold: its training, validation and test assemblies
+    fold: int = field(default=0, metadata=WEIGHTS)
+    # λ of P@1 and of "no complete sequence" (docs/metrics.md)
+    threshold: float = field(default=0.5, metadata=PLANNING)
 
 
 def run(cfg: DictConfig) -> float:
