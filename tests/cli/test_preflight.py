@@ -4,8 +4,8 @@ grace/cli/preflight.py). One row per kind of bad input.
 
 Every row runs in the default suite through `grace.__main__.main` in this process (`here`), and
 as a real command in a fresh interpreter (`command`), which alone can tell that no heavy module
-was imported before the error: one row per table by default, every row with `-m slow` (a
-command costs a second of interpreter start-up and imports each).
+was imported before the error: every row under `-m slow` (a command costs a second of
+interpreter start-up and imports each; the default suite keeps its budget).
 """
 
 import os
@@ -57,14 +57,13 @@ def grace(
 
 
 def modes(table: dict) -> list:
-    """(case, mode) for every row of `table`: `here` always, `command` for the first row by
-    default and for the others under `-m slow` (module docstring)."""
-    slow = pytest.mark.slow
+    """(case, mode) for every row of `table`: `here` always, `command` (a fresh interpreter)
+    under `-m slow` (module docstring)."""
     return [
         *(pytest.param(case, "here", id=f"{case}-here") for case in table),
         *(
-            pytest.param(case, "command", id=f"{case}-command", marks=() if i == 0 else slow)
-            for i, case in enumerate(table)
+            pytest.param(case, "command", id=f"{case}-command", marks=pytest.mark.slow)
+            for case in table
         ),
     ]
 

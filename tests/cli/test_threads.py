@@ -21,10 +21,8 @@ def _threads(*overrides: str) -> int:
     ("overrides", "threads"),
     [
         (("task=plan",), 1),
-        (("task=search_bench",), 1),
         (("task=train",), 2),
         (("task=plan", "threads=2"), 2),
-        (("task=train", "threads=1"), 1),
     ],
 )
 def test_threads_follow_the_task_unless_given(overrides, threads):

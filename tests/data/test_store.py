@@ -305,6 +305,7 @@ def _generate_at(cfg, barrier, counts):
     counts.put(generate(cfg).generated)
 
 
+@pytest.mark.slow  # two processes; the claims' takeover rules have fast tests here
 def test_two_processes_generating_one_data_set_share_the_work(fake_cfg, tmp_path):
     """Started together on 40 assemblies (20 chunks) of a slowed-down simulator: every chunk is
     generated once, by one of them, each does a fair share, and the bytes are the usual ones."""

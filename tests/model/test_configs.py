@@ -28,7 +28,10 @@ EXTENDED = {
 }
 
 
-@pytest.mark.parametrize("name", MODELS)
+@pytest.mark.parametrize(
+    "name",
+    [pytest.param(m, marks=pytest.mark.slow) if m.startswith("perm_") else m for m in MODELS],
+)  # the permutation variants differ from grace.yaml only in the encoding's options
 def test_model_configs_build_the_same_network(cfg_factory, name):
     module = instantiate(cfg_factory(f"model={name}").model)
     assert isinstance(module, GraceModule) and isinstance(module.impl, FastImpl)

@@ -85,21 +85,24 @@ def _both_paths(samples, dtype, cfg=NetConfig(), enc=GraphEncoding()):  # noqa: 
     return ref, fast, ref_grads, fast_grads
 
 
+SLOW = pytest.mark.slow  # the rest of the matrix: every option value is in a fast row
+
+
 @pytest.mark.parametrize(
     ("state_blocks", "pair_readout", "rounds", "geometry", "two_heads", "pool"),
     [
         (0, 0, 1, 0, False, "sum"),
-        (1, 0, 1, 0, False, "sum"),
-        (3, 0, 1, 0, False, "sum"),
-        (0, 8, 1, 0, False, "sum"),
-        (1, 8, 1, 0, False, "sum"),
+        pytest.param(*(1, 0, 1, 0, False, "sum"), marks=SLOW),
+        pytest.param(*(3, 0, 1, 0, False, "sum"), marks=SLOW),
+        pytest.param(*(0, 8, 1, 0, False, "sum"), marks=SLOW),
+        pytest.param(*(1, 8, 1, 0, False, "sum"), marks=SLOW),
         (3, 8, 1, 0, False, "sum"),
-        (0, 8, 3, 0, False, "sum"),
-        (0, 8, 3, 6, False, "sum"),
+        pytest.param(*(0, 8, 3, 0, False, "sum"), marks=SLOW),
+        pytest.param(*(0, 8, 3, 6, False, "sum"), marks=SLOW),
         (1, 8, 2, 6, False, "sum"),
-        (0, 8, 2, 6, True, "sum"),
+        pytest.param(*(0, 8, 2, 6, True, "sum"), marks=SLOW),
         (0, 8, 3, 6, True, "mean"),
-        (1, 8, 2, 0, False, "mean"),
+        pytest.param(*(1, 8, 2, 0, False, "mean"), marks=SLOW),
         (0, 8, 3, 6, True, "max"),
         (1, 8, 2, 0, False, "max"),
     ],

@@ -61,6 +61,7 @@ DEAD_START = Assembly(
 """Placing part 3 first is possible, but no order goes on from there."""
 
 
+@pytest.mark.slow  # every step of generated assemblies in MuJoCo; the hand cases stay fast
 def test_step_checks_agree_with_the_ground_truth_and_explain(sim, generated):
     for sample in generated:
         truth, oracle = sample.truth, SimulatorSteps(sim, sample.assembly)

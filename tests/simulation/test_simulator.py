@@ -118,7 +118,7 @@ def test_an_open_bar_stops_the_arm_links_too(world):
 
 @pytest.mark.parametrize(("index", "bodies"), [
     (SIDE_SLIDE, {"finger", "slide corridor", "T-slot connector"}),
-    (ROBOT, {"palm", "arm link 4 (wrist)"}),
+    pytest.param(ROBOT, {"palm", "arm link 4 (wrist)"}, marks=pytest.mark.slow),
 ])  # fmt: skip
 def test_explain_agrees_with_the_labels_and_names_the_robot_body(real_sim, index, bodies):
     sim = real_sim

@@ -93,6 +93,7 @@ def test_a_second_process_adds_to_the_same_study(tmp_path, cfg_factory):
     assert summary["n_trials"] == 5 and not (second / "study.db").exists()
 
 
+@pytest.mark.slow  # a study of real trials; the study and its report have fast tests
 def test_pruning_stops_bad_trials_on_the_first_fold(tmp_path, cfg_factory):
     cfg = cfg_factory(
         "task=tune", *FAKES, *SMALL[:3], "tune.n_trials=10", "tune.sampler.n_startup_trials=10",
