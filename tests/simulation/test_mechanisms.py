@@ -146,7 +146,14 @@ REPLAYED_OTHERS = 24
 """Orders outside a hand case's known ones that its test replays."""
 
 
-@pytest.mark.parametrize("name", list(CASES))
+SLOW_CASES = {"groove_connector", "clamp_in_path"}
+"""The two hand cases of the most MuJoCo replays (~4 s each); their mechanisms keep fast tests
+(the groove and clamp-post test below, the rule switches of tests/simulation/test_simulator.py)."""
+
+
+@pytest.mark.parametrize(
+    "name", [pytest.param(n, marks=pytest.mark.slow) if n in SLOW_CASES else n for n in CASES]
+)
 def test_hand_case_has_its_known_orders_and_replays(real_sim, world, name):
     make, orders, mechanisms = CASES[name]
     assembly = make(world)
