@@ -391,9 +391,11 @@ def pair_readout(
     pool = net.cfg.pool
     rel = _by_state(shared.relations, state_assembly)  # (T or 1, N_src, N_dst, P)
     if pool == Pool.max:
-        apart = _not_pairs(_by_state(dense.part_mask, state_assembly))  # (T or 1, N, N, 1)
-        placed = (flags > 0.5).view(t, n, 1, 1)  # by source part
-        pooled = [_max(rel, apart | ~placed), _max(rel, apart | placed)]
+        apart = _apart_bias(_by_state(dense.part_mask, state_assembly), rel.dtype)
+        placed, zero = flags > 0.5, torch.zeros_like(flags)  # by source part
+        only_placed = zero.masked_fill(~placed, -torch.inf).view(t, n, 1, 1)
+        only_unplaced = zero.masked_fill(placed, -torch.inf).view(t, n, 1, 1)
+        pooled = [_max(rel + (apart + only_placed)), _max(rel + (apart + only_unplaced))]
     else:
         if rel.shape[0] == 1:
             placed = (flags @ rel.view(n, -1)).view(t, n, -1)
@@ -410,28 +412,37 @@ def pair_readout(
         pooled.append((placed_others / others).unsqueeze(-1))
     h = torch.tanh(_linear(net.fuse, torch.cat([h, *pooled], dim=-1)))
     for gate, fuse in zip(net.round_gates, net.round_fuses, strict=True):
-        values = rel * _linear(gate, h).unsqueeze(2)
         if pool == Pool.max:
-            message = _max(values, apart)
+            message = _max(torch.addcmul(apart, rel, _linear(gate, h).unsqueeze(2)))
         else:
-            message = values.sum(dim=1)
+            message = (rel * _linear(gate, h).unsqueeze(2)).sum(dim=1)
             if pool == Pool.mean:
                 message = message / others.unsqueeze(-1)
         h = torch.tanh(_linear(fuse, torch.cat([h, message], dim=-1)))
     return h
 
 
-def _not_pairs(real: torch.Tensor) -> torch.Tensor:
-    """(T, N_src, N_dst, 1) bool: True where (source, destination) is not an ordered pair of
-    two different real parts (`real`: (T, N) bool); the masks of :func:`_max`, built once."""
+def _apart_bias(real: torch.Tensor, dtype: torch.dtype) -> torch.Tensor:
+    """(T, N_src, N_dst, 1): −inf where (source, destination) is not an ordered pair of two
+    different real parts (`real`: (T, N) bool), 0 where it is; built once per call.
+
+    The pools mask by adding such biases, not by `masked_fill`: a bool mask broadcast over the
+    channels makes `masked_fill` 3–6× slower on the CPU than a broadcast add (forward; 1.6×
+    with backward), and the result is the same for finite values (x + 0 = x, x − inf = −inf)."""
     same = torch.eye(real.shape[-1], dtype=torch.bool, device=real.device)
-    return (same | ~(real.unsqueeze(-1) & real.unsqueeze(-2))).unsqueeze(-1)
+    apart = same | ~(real.unsqueeze(-1) & real.unsqueeze(-2))
+    return (
+        torch.zeros(apart.shape, dtype=dtype, device=real.device)
+        .masked_fill_(apart, -torch.inf)
+        .unsqueeze(-1)
+    )
 
 
-def _max(values: torch.Tensor, drop: torch.Tensor) -> torch.Tensor:
-    """Max of `values` (T, N_src, N_dst, P) over the sources not in `drop` (T, N_src, N_dst,
-    1); 0 for a destination with none (only those come out −inf; a NaN or +inf stays)."""
-    out = values.masked_fill(drop, -torch.inf).amax(dim=1)
+def _max(values: torch.Tensor) -> torch.Tensor:
+    """Max of `values` (T, N_src, N_dst, P) over the sources, the masked ones −inf by their
+    bias; 0 for a destination with none left (only those come out −inf; a NaN or +inf
+    stays)."""
+    out = values.amax(dim=1)
     return torch.nan_to_num(out, nan=torch.nan, posinf=torch.inf, neginf=0.0)
 
 
