@@ -9,16 +9,24 @@ leads nowhere, so the verified search tries the steps both allow first
 this matters most: taking a part away can leave a rest that no order builds (a bracket whose
 profiles are gone, a frame cut in two), which the policy, trained on reachable states only, was
 never asked about.
+
+Read off the checks' own rule (`FixationPrior.of_steps`), the prior is a proof, not a guess: a
+step it refuses cannot be on any order, and the search drops it without a check. This keeps a
+large frame's search out of dead subtrees: near the end of a backward search, a rest that no
+order builds has 2^k subsets, each of which a search that only tries such steps last would visit
+(docs/planning.md, "Frames of 20 to 50 parts").
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
 
 from grace.domain.assembly import Assembly, mask_to_parts
+from grace.planning.step_checks import BlockerSteps
 from grace.simulation.ground_truth import Fixation
 from grace.simulation.joints import touching
 
@@ -40,14 +48,26 @@ class FixationPrior:
 
     @classmethod
     def of(cls, assembly: Assembly, tolerance: float) -> FixationPrior:
-        """The prior of `assembly`; `tolerance`: the cell's touch tolerance (mm)."""
+        """The prior of `assembly` from its geometry; `tolerance`: the cell's touch tolerance
+        (mm). A guess about the checks: the cell may run with fixation switched off."""
         fixation = Fixation.of(assembly, touching(assembly, tolerance))
-        n = assembly.n_parts
+        return cls._read(assembly.n_parts, fixation.holds)
+
+    @classmethod
+    def of_steps(cls, steps: BlockerSteps) -> FixationPrior:
+        """The prior of the checks' own fixation rule (`BlockerSteps.fixed`, everything when
+        the cell runs without it): exact, so a step it refuses the check refuses, and a state
+        it cannot build no order reaches."""
+        return cls._read(steps.n_parts, steps.fixed)
+
+    @classmethod
+    def _read(cls, n: int, holds: Callable[[np.ndarray, int], np.ndarray]) -> FixationPrior:
+        """Read `first` and `enablers` off `holds(states, part)` (the form of `Fixation.holds`:
+        a part goes first or is fixed by any one enabler placed)."""
         singles = np.int64(1) << np.arange(n, dtype=np.int64)
-        first = sum(1 << p for p in range(n) if fixation.holds(np.int64(0), p))
+        first = sum(1 << p for p in range(n) if holds(np.int64(0), p))
         enablers = tuple(
-            sum(1 << q for q in np.flatnonzero(fixation.holds(singles, p)) if q != p)
-            for p in range(n)
+            sum(1 << int(q) for q in np.flatnonzero(holds(singles, p)) if q != p) for p in range(n)
         )
         return cls(first, enablers)
 

@@ -216,21 +216,28 @@ class VerifiedSearch:
         prior: StepPrior | None = None,
         refute: Refutation | None = None,
         exhaust: Callable[[], GroundTruth] | None = None,
+        prior_proves: bool = False,
     ) -> SearchResult:
         """Search one assembly: `scores(state)` gives the policy's score of each step out of
         `state` in this search's direction, `oracle` the simulator's step checks; the steps
-        `prior(before, part)` allows are tried first; `refute()`, asked first, may prove the
-        assembly infeasible without a step check; `exhaust()`, the brute force on the same
+        `prior(before, part)` allows are tried first, and the others never if `prior_proves`
+        (the prior is exact: a step it refuses is on no order); `refute()`, asked first, may
+        prove the assembly infeasible without a step check; `exhaust()`, the brute force on the same
         checks, decides feasibility once the search has spent `exhaustive_after` × N checks
         on an assembly of at most `exhaustive_parts` parts without a verdict: a proof then
         costs at most the brute force's on top (its checks are added to the search's)."""
-        return _Search(self, scores, oracle, prior, refute, exhaust).run()
+        return _Search(self, scores, oracle, prior, refute, exhaust, prior_proves).run()
 
     def plan(self, scorer: Scorer, assembly: Assembly, oracle: StepOracle) -> SearchResult:
         """Search `assembly` with the policy `scorer` (its states scored lazily, forward one
         forward pass per state, backward one batched call per state), with the fixation prior
-        (grace/planning/fixation_prior.py) if `fixation_prior`."""
-        fixation = FixationPrior.of(assembly, self.touch_tolerance)
+        (grace/planning/fixation_prior.py) if `fixation_prior`: read off the checks' own rule
+        when `oracle` exposes it (then the steps it refuses are dropped), else off the
+        geometry (then they are tried last)."""
+        if isinstance(oracle, BlockerSteps):
+            fixation, proves = FixationPrior.of_steps(oracle), True
+        else:
+            fixation, proves = FixationPrior.of(assembly, self.touch_tolerance), False
         prior = fixation.allows if self.fixation_prior else None
         refute = exhaust = None
         if isinstance(oracle, BlockerSteps):
@@ -238,7 +245,7 @@ class VerifiedSearch:
                 refute = lambda: refuted(oracle, fixation)  # noqa: E731
             exhaust = lambda: brute_force(oracle)  # noqa: E731
         scores = lazy_scores if self.direction == Direction.forward else removal_scores
-        return self.search(scores(scorer, assembly), oracle, prior, refute, exhaust)
+        return self.search(scores(scorer, assembly), oracle, prior, refute, exhaust, proves)
 
     def checked_plan(
         self,
@@ -277,9 +284,11 @@ class _Search:
         prior: StepPrior | None,
         refute: Refutation | None = None,
         exhaust: Callable[[], GroundTruth] | None = None,
+        prior_proves: bool = False,
     ) -> None:
         self.config = config
         self.prior = prior
+        self.prior_proves = prior_proves
         self.refute = refute
         small = oracle.n_parts <= config.exhaustive_parts
         self.exhaust = exhaust if config.k is not None and small else None
@@ -349,7 +358,10 @@ class _Search:
         if self.prior is not None:
             for part in candidates:
                 allowed[part] = self.prior(self._before(state, part), part)
+            if self.prior_proves:  # the others lead nowhere
+                candidates = [p for p in candidates if allowed[p]]
         node = _Node(state, row, candidates, allowed, logp)
+        node.dead = not candidates
         self.nodes[state] = node
         count = len(self.nodes)
         if count > len(self.states):

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from planning_fakes import MaskSteps, fixed_scores, line_assembly
 
+from grace.planning.fixation_prior import FixationPrior
 from grace.planning.search import Direction, Frontier, Outcome, VerifiedSearch
 from grace.planning.step_checks import StepCheck, blocking_set, brute_force, minimal_masks
 
@@ -165,10 +166,18 @@ def test_exhaustive_mode_verifies_exactly_the_brute_force_orders(seed):
     rng = np.random.default_rng(seed)
     masks, touch = random_world(6, rng)
     truth = brute_force(MaskSteps(masks, touch))
-    for direction, frontier, learn in itertools.product(Direction, Frontier, (True, False)):
+    exact = FixationPrior.of_steps(MaskSteps(masks, touch)).allows
+    for direction, frontier, learn, proves in itertools.product(
+        Direction, Frontier, (True, False), (True, False)
+    ):
         table = rng.random((64, 6))
         search = VerifiedSearch(k=None, direction=direction, frontier=frontier, learn_blocks=learn)
-        result = search.search(lambda s, table=table: table[s], MaskSteps(masks, touch))
+        result = search.search(
+            lambda s, table=table: table[s],
+            MaskSteps(masks, touch),
+            exact if proves else None,
+            prior_proves=proves,
+        )
         assert set(result.verified.orders()) == set(truth.orders())
         assert {r.sequence for r in result.orders} == set(truth.orders())
         assert result.outcome == (Outcome.verified if truth.feasible else Outcome.infeasible)
@@ -180,7 +189,10 @@ def test_exhaustive_mode_verifies_exactly_the_brute_force_orders(seed):
         assert probabilities == sorted(probabilities, reverse=True)
         # first-order searches: verified, passing every step, or infeasible exactly when it is
         first = VerifiedSearch(direction=direction, frontier=frontier, learn_blocks=learn).search(
-            lambda s, table=table: table[s], MaskSteps(masks, touch)
+            lambda s, table=table: table[s],
+            MaskSteps(masks, touch),
+            exact if proves else None,
+            prior_proves=proves,
         )
         assert first.outcome == result.outcome
         assert all(steps_pass(MaskSteps(masks, touch), r.sequence) for r in first.orders)
@@ -233,3 +245,39 @@ def test_minimal_masks_and_blocking_sets_taken_as_early_as_possible():
         chosen = blocking_set(conflicts, order)
         assert all(c & chosen for c in conflicts)
     assert blocking_set((), order) == 0
+
+
+@pytest.mark.parametrize("direction", list(Direction))
+def test_an_exact_fixation_prior_drops_the_steps_it_refuses_without_a_check(direction):
+    """Read off the checks' own rule, the prior refuses only steps on no order: the search
+    never asks about them and reaches the same verdicts. Proofs of infeasibility cost fewer
+    checks in all than when it only tries them last (not in every world: a refused step's
+    check can name no blocker at all, which ends the search at once)."""
+    spent = {False: 0, True: 0}
+    for seed in range(40):
+        masks, touch = random_world(7, np.random.default_rng(seed))
+        prior = FixationPrior.of_steps(MaskSteps(masks, touch))
+        truth = brute_force(MaskSteps(masks, touch))
+        runs = {}
+        for proves in (False, True):
+            world = MaskSteps(masks, touch)
+            result = VerifiedSearch(direction=direction).search(
+                fixed_scores({}, 7), world, prior.allows, prior_proves=proves
+            )
+            assert result.outcome == (Outcome.verified if truth.feasible else Outcome.infeasible)
+            runs[proves] = (result, world)
+        asked = runs[True][1]._cache
+        assert all(prior.allows(state, part) for state, part in asked)
+        if not truth.feasible:
+            for proves, (result, _) in runs.items():
+                spent[proves] += result.checks
+    assert spent[True] < spent[False]
+
+
+def test_a_prior_without_the_fixation_rule_refuses_nothing():
+    """Checks that do not enforce fixation give a prior that allows every step, so dropping
+    what it refuses drops nothing."""
+    prior = FixationPrior.of_steps(MaskSteps(LATE_BLOCK, None))
+    assert all(prior.allows(s, p) for s in range(16) for p in range(4) if not s >> p & 1)
+    strict = FixationPrior.of_steps(MaskSteps(LATE_BLOCK, LINE))
+    assert not strict.allows(0b1101, 1) and strict.allows(0b0001, 1)

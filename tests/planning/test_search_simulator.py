@@ -21,14 +21,18 @@ from grace.planning.search import Direction, Frontier, Outcome, VerifiedSearch
 from grace.planning.step_checks import brute_force
 
 
-@pytest.fixture(scope="module")
-def sim():
+def simulator(*overrides: str):
     register_schemas(light=True)  # the simulator group only: no torch-side schemas needed
     GlobalHydra.instance().clear()
     with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
-        cfg = compose(config_name="config")
+        cfg = compose(config_name="config", overrides=list(overrides))
     GlobalHydra.instance().clear()
     return instantiate(cfg.simulator)
+
+
+@pytest.fixture(scope="module")
+def sim():
+    return simulator()
 
 
 @pytest.fixture(scope="module")
@@ -104,6 +108,22 @@ def test_exhaustive_search_verifies_exactly_the_ground_truth_orders(
         assert result.outcome == expected and result.exhausted
 
 
+def test_with_fixation_switched_off_the_search_drops_no_step_for_it(sim, generated):
+    """The prior is read off the checks: in a cell without the fixation rule it refuses
+    nothing, and the exhaustive search still finds every order, more than with the rule."""
+    free = simulator("simulator.rules.fixation=false")
+    gained = 0
+    for sample in generated[:6]:
+        assembly = sample.assembly
+        truth = brute_force(SimulatorSteps(free, assembly))
+        result = VerifiedSearch(k=None).plan(
+            random_scorer(1), assembly, SimulatorSteps(free, assembly)
+        )
+        assert result.verified.same_orders(truth)
+        gained += truth.n_orders() - sample.truth.n_orders()
+    assert gained > 0
+
+
 def test_a_hand_built_infeasible_frame_is_proved_infeasible(sim):
     assembly = RAILS
     truth = sim.label(assembly).truth
@@ -154,10 +174,12 @@ def test_returned_orders_replay_in_the_uncached_cell(sim):
 
 def test_the_fixation_prior_never_rules_out_a_step_an_order_takes(sim, generated):
     """Every reachable state is buildable and every step the ground truth allows is fixed;
-    states outside the ground truth that the prior calls unbuildable are indeed unreached."""
+    states outside the ground truth that the prior calls unbuildable are indeed unreached. The
+    prior read off the simulator's checks is the geometry's."""
     for sample in generated:
         truth, assembly = sample.truth, sample.assembly
         prior = FixationPrior.of(assembly, sim.tolerance)
+        assert FixationPrior.of_steps(SimulatorSteps(sim, assembly)) == prior  # the checks' rule
         reached = set(truth.states.tolist())
         for state, placeable in zip(truth.states.tolist(), truth.placeable.tolist(), strict=True):
             assert prior.buildable(state)
