@@ -1,19 +1,25 @@
 """Timing of the network's two implementations (task=bench): training steps and single-state
-inference, on the same weights; figures, not tests."""
+inference, on the same weights; and the planner's scoring of one state's removals on a large
+frame (`python -m grace.model.timing`); figures, not tests."""
 
 from __future__ import annotations
 
+import argparse
 import time
 from typing import Any
 
 import numpy as np
 import torch
 
+from grace.data.raw_format import read_assembly
+from grace.domain.assembly import Assembly
 from grace.domain.sample import LabelledAssembly
 from grace.graphs.datamodule import AssemblyBatchSampler, StateDataset, merge_chunks
+from grace.model.checkpoints import load_model
 from grace.model.impls import CompiledImpl, NetImpl
+from grace.model.kept import find_checkpoint
 from grace.model.module import GraceModule
-from grace.model.scoring import make_scorer
+from grace.model.scoring import Scorer, make_scorer
 
 
 def feasible_assemblies(
@@ -117,3 +123,44 @@ def inference_table(bench: dict[str, Any]) -> str:
         )
     lines.append(f"{bench['threads']} thread(s); median of {bench['infer_calls']} calls.")
     return "\n".join(lines) + "\n"
+
+
+def removal_ms(
+    scorer: Scorer, assembly: Assembly, sizes: list[int], calls: int
+) -> dict[int, float]:
+    """Median ms of one expansion of the backward search (grace/planning/search.py,
+    `removal_scores`): scoring every removal of a state of the assembly's first k parts, per k
+    in `sizes`, the assembly's shared work cached as in a search."""
+    out = {}
+    for k in sizes:
+        state = (1 << k) - 1
+        rests = np.array([state & ~(1 << p) for p in range(k)], dtype=np.int64)
+        scorer(assembly, rests)  # warm-up: the shared work and the allocator
+        times = []
+        for _ in range(calls):
+            start = time.perf_counter()
+            scorer(assembly, rests)
+            times.append(time.perf_counter() - start)
+        out[k] = 1e3 * float(np.median(times))
+    return out
+
+
+def main() -> None:
+    """`python -m grace.model.timing <ckpt or run folder> <assembly.spec> [calls]`: the planner's
+    scoring cost on a large frame, one thread (docs/planning.md, "Large frames")."""
+    parser = argparse.ArgumentParser(prog="python -m grace.model.timing", description=main.__doc__)
+    parser.add_argument("ckpt")
+    parser.add_argument("assembly")
+    parser.add_argument("calls", nargs="?", type=int, default=20)
+    args = parser.parse_args()
+    torch.set_num_threads(1)
+    module, _ = load_model(find_checkpoint(args.ckpt, 0))
+    assembly, _ = read_assembly(args.assembly)
+    n = assembly.n_parts
+    sizes = sorted({n, max(1, n // 2), max(1, n // 5)}, reverse=True)
+    for k, ms in removal_ms(make_scorer(module), assembly, sizes, args.calls).items():
+        print(f"{k} removals of {n} parts: {ms:.1f} ms (median of {args.calls})")
+
+
+if __name__ == "__main__":
+    main()
