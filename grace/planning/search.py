@@ -204,7 +204,7 @@ class VerifiedSearch:
     fixation_prior: bool = True
     precedence: bool = True
     exhaustive_parts: int = 20
-    exhaustive_after: int = 20
+    exhaustive_after: int = 3
     touch_tolerance: float = 0.5
     max_checks: int | None = None
     max_seconds: float | None = None
@@ -531,6 +531,8 @@ class _Search:
             root = self._expand(self.start_state, 0.0)
         out_of_budget = False
         while self.heap and not root.dead and not self._enough():
+            if self._exhausted_by_brute_force(root):
+                break
             *_, state = heapq.heappop(self.heap)
             node = self.nodes[state]
             if node.dead:
@@ -554,8 +556,6 @@ class _Search:
                 self._take(node, part, start)
             else:
                 self._refuse(node, part, verdict.conflicts)
-                if self._exhausted_by_brute_force(root):
-                    break
         seconds = time.perf_counter() - start
         exhausted = not out_of_budget and not self._enough()
         if self.goal.parents and root.alive:
