@@ -426,9 +426,10 @@ def _apart_bias(real: torch.Tensor, dtype: torch.dtype) -> torch.Tensor:
     """(T, N_src, N_dst, 1): −inf where (source, destination) is not an ordered pair of two
     different real parts (`real`: (T, N) bool), 0 where it is; built once per call.
 
-    The pools mask by adding such biases, not by `masked_fill`: a bool mask broadcast over the
-    channels makes `masked_fill` 3–6× slower on the CPU than a broadcast add (forward; 1.6×
-    with backward), and the result is the same for finite values (x + 0 = x, x − inf = −inf)."""
+    The pools mask by adding such biases, not by `masked_fill`: with a bool mask broadcast over
+    the channels, `masked_fill` is several times slower on the CPU than a broadcast add
+    (`python -m grace.model.timing`, docs/planning.md "Large frames"), and the result is the
+    same for finite values (x + 0 = x, x − inf = −inf)."""
     same = torch.eye(real.shape[-1], dtype=torch.bool, device=real.device)
     apart = same | ~(real.unsqueeze(-1) & real.unsqueeze(-2))
     return (
