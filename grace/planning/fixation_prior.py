@@ -4,8 +4,9 @@ Fixation (docs/world.md, "Rules"): the first part is a profile; a later profile 
 part it touches; a bracket needs a placed profile it joins. From which parts touch, a planner
 knows two things without the simulator: whether a part is fixed in a state, and whether a state
 can be built at all (some order of its parts satisfies fixation). A step that either fails
-leads nowhere, so the verified search tries the steps both allow first
-(`VerifiedSearch.fixation_prior`); the simulator's checks still decide every step. Backward,
+leads nowhere, so the verified search tries the steps both allow first, or only those when the
+prior is read off the checks' own rule (below; `VerifiedSearch.fixation_prior`); the simulator's
+checks still decide every step taken. Backward,
 this matters most: taking a part away can leave a rest that no order builds (a bracket whose
 profiles are gone, a frame cut in two), which the policy, trained on reachable states only, was
 never asked about.
@@ -14,7 +15,7 @@ Read off the checks' own rule (`FixationPrior.of_steps`), the prior is a proof, 
 step it refuses cannot be on any order, and the search drops it without a check. This keeps a
 large frame's search out of dead subtrees: near the end of a backward search, a rest that no
 order builds has 2^k subsets, each of which a search that only tries such steps last would visit
-(docs/planning.md, "Frames of 20 to 50 parts").
+(docs/planning.md, "Large frames: 20 to 50 parts").
 """
 
 from __future__ import annotations

@@ -234,16 +234,15 @@ class VerifiedSearch:
         (grace/planning/fixation_prior.py) if `fixation_prior`: read off the checks' own rule
         when `oracle` exposes it (then the steps it refuses are dropped), else off the
         geometry (then they are tried last)."""
-        if isinstance(oracle, BlockerSteps):
-            fixation, proves = FixationPrior.of_steps(oracle), True
-        else:
-            fixation, proves = FixationPrior.of(assembly, self.touch_tolerance), False
-        prior = fixation.allows if self.fixation_prior else None
         refute = exhaust = None
         if isinstance(oracle, BlockerSteps):
+            fixation, proves = FixationPrior.of_steps(oracle), True
             if self.precedence:
                 refute = lambda: refuted(oracle, fixation)  # noqa: E731
             exhaust = lambda: brute_force(oracle)  # noqa: E731
+        else:
+            fixation, proves = FixationPrior.of(assembly, self.touch_tolerance), False
+        prior = fixation.allows if self.fixation_prior else None
         scores = lazy_scores if self.direction == Direction.forward else removal_scores
         return self.search(scores(scorer, assembly), oracle, prior, refute, exhaust, proves)
 
