@@ -91,7 +91,10 @@ def test_switching_a_rule_off_changes_exactly_the_labels_it_decides(world, rule)
     assert changed >= 1
 
 
-@pytest.mark.parametrize("index", [SIDE_SLIDE, pytest.param(ROBOT, marks=pytest.mark.slow)])
+@pytest.mark.parametrize(
+    "index",  # both slow: the listed-iff-replays rule keeps fast rows in test_mechanisms.py
+    [pytest.param(SIDE_SLIDE, marks=pytest.mark.slow), pytest.param(ROBOT, marks=pytest.mark.slow)],
+)
 def test_every_listed_order_replays_in_mujoco_and_no_other_does(real_sim, index):
     """All 120 orders through the uncached MuJoCo check: side slides, clamps and held parts
     deciding; the wrist and a clamp's handle."""
