@@ -15,11 +15,16 @@ class LabelledAssembly:
 
     `info` holds JSON-serialisable facts about how the truth came about, e.g. `cause`
     ("reach" | "collision" | "other" | None), `robot_pruned`, `nonlocal_block`, `seconds`.
+
+    `known` is for a partial label (a search's, grace/planning/self_labels.py): per state of
+    the truth, the parts whose next-step label is known (a bitmask); training puts no loss on
+    the others. None: every label is known, as in a brute force's truth.
     """
 
     assembly: Assembly
     truth: GroundTruth
     info: dict[str, Any] = field(default_factory=dict)
+    known: dict[int, int] | None = None
 
     @property
     def size(self) -> int:
@@ -31,4 +36,5 @@ class LabelledAssembly:
             and self.assembly == other.assembly
             and self.truth == other.truth
             and self.info == other.info
+            and self.known == other.known
         )

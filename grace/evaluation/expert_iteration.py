@@ -15,8 +15,9 @@ from grace.domain.assembly import Assembly
 from grace.domain.sample import LabelledAssembly
 from grace.evaluation.self_train import RoundFigures
 from grace.planning.cell_steps import SimulatorSteps
+from grace.planning.fixation_prior import FixationPrior
 from grace.planning.search import VerifiedSearch
-from grace.planning.self_labels import plan_labels
+from grace.planning.self_labels import plan_labels, search_negatives
 from grace.planning.sequences import Scorer
 
 log = logging.getLogger(__name__)
@@ -37,12 +38,15 @@ Score = Callable[[Scorer], dict]
 """`score(scorer)`: the test figures per size (`size_figures`)."""
 
 
-def search_labeller(search: VerifiedSearch, simulator: Any) -> Labeller:
-    """Labels from the verified search's checked plan (grace/planning/self_labels.py)."""
+def search_labeller(search: VerifiedSearch, simulator: Any, mask: bool = True) -> Labeller:
+    """Labels from the verified search's checked plan (grace/planning/self_labels.py); with
+    `mask`, only the parts whose label the search knows carry a loss."""
 
     def label(scorer: Scorer, assembly: Assembly) -> LabelledAssembly | None:
-        plan = search.checked_plan(scorer, assembly, SimulatorSteps(simulator, assembly))
-        return plan_labels(plan, assembly)
+        steps = SimulatorSteps(simulator, assembly)
+        result, plan = search.checked(scorer, assembly, steps)
+        negatives = search_negatives(result, FixationPrior.of_steps(steps)) if mask else None
+        return plan_labels(plan, assembly, negatives)
 
     return label
 
@@ -62,7 +66,7 @@ def label_round(
     scorer: Scorer, drawn: Sequence[Assembly], label: Labeller, figures: RoundFigures
 ) -> list[LabelledAssembly]:
     """The drawn assemblies that got a label, counted into `figures`."""
-    out = []
+    out, known = [], []
     for assembly in drawn:
         sample = label(scorer, assembly)
         figures.drawn += 1
@@ -74,8 +78,11 @@ def label_round(
         if sample.truth.feasible:
             figures.verified += 1
             figures.orders += int(sample.info.get("verified_orders", 0))
+            if "known_share" in sample.info:
+                known.append(sample.info["known_share"])
         else:
             figures.infeasible += 1
+    figures.known_share = sum(known) / len(known) if known else None
     return out
 
 

@@ -46,8 +46,11 @@ TABLE3_PROTOCOLS = ("one_to_many", "upward")
 test sizes A8–A12 extend its columns); the others fill Table 2."""
 
 
-def find_results(roots: Iterable[str | Path]) -> list[Path]:
-    """Every results.json under the roots, sorted (a UserError if there is none)."""
+def find_results(
+    roots: Iterable[str | Path], name: str = RESULTS_FILE, required: bool = True
+) -> list[Path]:
+    """Every file `name` (results.json) under the roots, sorted (a UserError if there is none
+    and one is `required`)."""
     roots = [Path(root) for root in roots]
     found = []
     for root in roots:
@@ -55,10 +58,10 @@ def find_results(roots: Iterable[str | Path]) -> list[Path]:
             raise UserError(
                 f"task.roots: {root} does not exist; pass the sweep folder(s) holding the runs"
             )
-        found += sorted(root.rglob(RESULTS_FILE))
-    if not found:
+        found += sorted(root.rglob(name))
+    if not found and required:
         shown = [str(root) for root in roots]
-        raise UserError(f"task.roots {shown}: no {RESULTS_FILE} found; run a sweep first")
+        raise UserError(f"task.roots {shown}: no {name} found; run a sweep first")
     return found
 
 

@@ -1,6 +1,7 @@
 """Self-training's per-round figures (grace/tasks/self_train.py): what each round added and what
 its model scores on the test sizes, as self_train.json and self_train.md
-(docs/size-generalisation.md, "Self-training")."""
+(docs/size-generalisation.md, "Self-training"); and several runs' figures pooled over their
+training seeds (`pooled_markdown`, written by task=gather)."""
 
 from __future__ import annotations
 
@@ -11,6 +12,15 @@ from typing import Any
 import numpy as np
 
 from grace.data.atomic import finite_or_null
+from grace.errors import UserError
+from grace.evaluation.report import mean_std
+from grace.evaluation.tables import cell, markdown_table
+
+SELF_TRAIN_FILE = "self_train.json"
+"""What task=self_train writes into its run folder and task=gather pools."""
+
+REPLICATE_SETTINGS = ("seed",)
+"""Settings in which runs pooled into one row may differ: they repeat, not vary, a run."""
 
 
 @dataclass
@@ -29,6 +39,8 @@ class RoundFigures:
     not_found: int = 0
     orders: int = 0
     added: int = 0
+    # mean over this round's feasible masked labels of the share of unplaced parts' labels known
+    known_share: float | None = None
     seconds: dict[str, float] = field(default_factory=dict)
     test: dict[str, dict[str, float | int | None]] = field(default_factory=dict)
 
@@ -63,10 +75,12 @@ def _cell(value: float | None) -> str:
 
 
 def self_train_markdown(settings: Mapping[str, Any], rounds: Sequence[RoundFigures]) -> str:
-    """The rounds as one table: added assemblies, verified share, wall time, then strict P@1
-    and the no-sequence share per test size."""
+    """The rounds as one table: added assemblies, verified share, the share of known labels
+    (masked verified labels), wall time, then strict P@1 and the no-sequence share per test
+    size."""
     sizes = sorted({int(s) for r in rounds for s in r.test})
-    head = ["round", "drawn", "verified share", "infeasible", "not found", "added", "wall s"]
+    head = ["round", "drawn", "verified share", "infeasible", "not found", "added", "known share"]
+    head += ["wall s"]
     head += [f"strict P@1 A{s}" for s in sizes] + [f"no sequence A{s}" for s in sizes]
     lines = [
         f"# Self-training ({settings.get('labels')} labels)",
@@ -78,8 +92,46 @@ def self_train_markdown(settings: Mapping[str, Any], rounds: Sequence[RoundFigur
     ]
     for r in rounds:
         row = [str(r.round), str(r.drawn), _cell(r.verified_share), str(r.infeasible)]
-        row += [str(r.not_found), str(r.added), f"{sum(r.seconds.values()):.0f}"]
+        row += [str(r.not_found), str(r.added), _cell(r.known_share)]
+        row += [f"{sum(r.seconds.values()):.0f}"]
         row += [_cell(r.test.get(str(s), {}).get("p_at_1_strict")) for s in sizes]
         row += [_cell(r.test.get(str(s), {}).get("no_sequence_share")) for s in sizes]
         lines.append("| " + " | ".join(row) + " |")
     return "\n".join(lines) + "\n"
+
+
+def _label_source(settings: Mapping[str, Any]) -> str:
+    if settings["labels"] != "verified":
+        return str(settings["labels"])
+    return "verified, masked" if settings.get("mask_unknown", False) else "verified, unmasked"
+
+
+def pooled_markdown(runs: Sequence[Mapping[str, Any]]) -> str:
+    """Self-training runs (their self_train.json) pooled over training seeds: per label source
+    and round, mean ± std over the runs of strict P@1 and of the no-sequence share per test
+    size. Runs pooled into one source must agree on every setting but the seed."""
+    groups: dict[str, list[Mapping[str, Any]]] = {}
+    for body in runs:
+        groups.setdefault(_label_source(body["settings"]), []).append(body)
+    sizes = sorted({int(s) for b in runs for r in b["rounds"] for s in r["test"]})
+    head = ["labels", "round", "seeds", "added"]
+    head += [f"strict P@1 A{s}" for s in sizes] + [f"no sequence A{s}" for s in sizes]
+    rows = []
+    for source, bodies in sorted(groups.items()):
+        fixed = [
+            {k: v for k, v in b["settings"].items() if k not in REPLICATE_SETTINGS} for b in bodies
+        ]
+        if any(f != fixed[0] for f in fixed):
+            raise UserError(
+                f"{SELF_TRAIN_FILE}: runs of '{source}' labels differ in more than "
+                f"{', '.join(REPLICATE_SETTINGS)}; fix: gather them from separate task.roots"
+            )
+        for r in range(min(len(b["rounds"]) for b in bodies)):
+            done = [b["rounds"][r] for b in bodies]
+            added = sorted({d["added"] for d in done})
+            shown = str(added[0]) if len(added) == 1 else f"{added[0]}–{added[-1]}"
+            row = [source, str(r), str(len(done)), shown]
+            for key in ("p_at_1_strict", "no_sequence_share"):
+                row += [cell(mean_std([d["test"][str(s)][key] for d in done])) for s in sizes]
+            rows.append(row)
+    return markdown_table(head, rows) + "\n"

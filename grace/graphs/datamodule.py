@@ -27,6 +27,11 @@ order completes (all its labels 0: the dead ends `states="reachable"` adds, and 
 infeasible assembly), so that at large sizes, where they outnumber the states on the true orders,
 they do not drown them; validation stays unweighted.
 
+A partial label (`LabelledAssembly.known`: self-training's labels from a verified search,
+grace/planning/self_labels.py) names per state the parts whose label is known; batches of a data
+set holding one leave the other parts out of `mask`, so the loss (and the logged step AUC) reads
+none of their targets.
+
 With `mixing="assembly"` (default) batches hold about `batch_size` states drawn from whole
 assemblies (large ones split into chunks), so that the fast path computes each surface embedding
 once per batch. `mixing="state"` draws states independently, as the reference's shuffled
@@ -124,8 +129,21 @@ def training_states(
     return chosen, state_masks(sample.truth, chosen)[0]
 
 
-Item = tuple[AssemblyTensors, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
-"""One chunk: (tensors, states, label masks, loss weights, feasible dead-end masks)."""
+ALL_KNOWN = -1
+"""The known-label mask of a state whose every part's label is known (all bits set)."""
+
+
+def known_masks(sample: LabelledAssembly, states: np.ndarray) -> np.ndarray:
+    """Per state, the parts whose label carries a loss (`LabelledAssembly.known`): all of them
+    unless the label is partial, and there those the sample knows (none in a state it lacks)."""
+    if sample.known is None:
+        return np.full(len(states), ALL_KNOWN, dtype=np.int64)
+    return np.array([sample.known.get(int(s), 0) for s in states], dtype=np.int64)
+
+
+Item = tuple[AssemblyTensors, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+"""One chunk: (tensors, states, label masks, loss weights, feasible dead-end masks, known-label
+masks)."""
 
 
 class AssemblyBatchSampler(Sampler[list[int]]):
@@ -188,8 +206,10 @@ class StateDataset:
         self.rng = np.random.default_rng([seed, int(training)])
         self.weighted = balance_steps or dead_end_weight != 1.0
         """Whether states carry loss weights other than 1 (batches then carry `weights`)."""
-        # (sample index, states, label masks, loss weights, feasible dead-end masks)
-        self.chunks: list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
+        self.partial = any(sample.known is not None for sample in self.samples)
+        """Whether some labels are partial (batches then leave unknown parts out of `mask`)."""
+        # (sample index, states, label masks, loss weights, feasible dead-end masks, known masks)
+        self.chunks: list[tuple[int, np.ndarray, ...]] = []
         per_sample = [training_states(sample, states) for sample in self.samples]
         steps = step_weights(self.samples, [s for s, _ in per_sample]) if balance_steps else None
         for i, (s, y) in enumerate(per_sample):
@@ -206,15 +226,16 @@ class StateDataset:
         self, i: int, s: np.ndarray, y: np.ndarray, step: np.ndarray | None, chunk_size: int
     ) -> None:
         """Chunk sample `i`'s states with their labels, loss weights (step balancing weight, 1
-        without, times `dead_end_weight` where no order completes) and feasible dead-end masks,
-        all fixed for the whole fit."""
+        without, times `dead_end_weight` where no order completes), feasible dead-end masks and
+        known-label masks, all fixed for the whole fit."""
         w = np.ones(len(s), dtype=np.float32) if step is None else step
         if self.dead_end_weight != 1.0:
             w = np.where(y == 0, np.float32(self.dead_end_weight), np.float32(1.0)) * w
         d = state_masks(self.samples[i].truth, s)[1]
+        k = known_masks(self.samples[i], s)
         for lo in range(0, len(s), chunk_size):
             part = slice(lo, lo + chunk_size)
-            self.chunks.append((i, s[part], y[part], w[part], d[part]))
+            self.chunks.append((i, s[part], y[part], w[part], d[part], k[part]))
 
     def extend(self, extra: Mapping[int, tuple[np.ndarray, np.ndarray]], chunk_size: int) -> None:
         """Add (states, label masks) for samples by index (the states a planner visited, see
@@ -226,7 +247,8 @@ class StateDataset:
         return len(self.chunks)
 
     def __getitem__(self, k: int) -> Item:
-        """(tensors, states, label masks, loss weights, feasible dead-end masks) of chunk `k`."""
+        """(tensors, states, label masks, loss weights, feasible dead-end masks, known-label
+        masks) of chunk `k`."""
         i, *rest = self.chunks[k]
         if i in self._fixed:
             return self._fixed[i], *rest
@@ -238,10 +260,11 @@ class StateDataset:
 
 def merge_chunks(dataset: StateDataset, collate: Collate, items: list[Item]) -> StateBatch:
     """One training batch from chunks of `dataset`: the collated states with their (graded)
-    labels, loss weights and placeable masks, as the training loop and the benchmark see it."""
-    groups: dict[int, tuple[AssemblyTensors, list, list, list, list]] = {}
+    labels, loss weights and placeable masks, as the training loop and the benchmark see it;
+    with partial labels, `mask` keeps only the parts whose label is known."""
+    groups: dict[int, tuple[AssemblyTensors, list, list, list, list, list]] = {}
     for tensors, *parts in items:  # chunks of one assembly share its tensors: merge them
-        group = groups.setdefault(id(tensors), (tensors, [], [], [], []))
+        group = groups.setdefault(id(tensors), (tensors, [], [], [], [], []))
         for into, part in zip(group[1:], parts, strict=True):
             into.append(part)
     tensors = [g[0] for g in groups.values()]
@@ -257,6 +280,9 @@ def merge_chunks(dataset: StateDataset, collate: Collate, items: list[Item]) -> 
     batch.placeable = batch.labels + graded
     if dataset.dead_end_target:
         batch.labels = batch.labels + dataset.dead_end_target * graded
+    if dataset.partial:
+        known = np.concatenate([np.concatenate(g[5]) for g in groups.values()])
+        batch.mask = batch.mask & state_flags(known, batch.mask.shape[1], torch.bool)
     return batch
 
 

@@ -255,6 +255,17 @@ class VerifiedSearch:
     ) -> Plan:
         """Search `assembly` (`plan`) with `steps`' simulator checks; the plan lists the verified
         orders and the first `RECORDED_EVENTS` events, each refusal with its reason."""
+        return self.checked(scorer, assembly, steps, truth)[1]
+
+    def checked(
+        self,
+        scorer: Scorer,
+        assembly: Assembly,
+        steps: SimulatorSteps,
+        truth: GroundTruth | None = None,
+    ) -> tuple[SearchResult, Plan]:
+        """`checked_plan` with the search's whole result (every event, where the plan keeps the
+        first `RECORDED_EVENTS`): self-training reads all its refusals."""
         budget = self.max_checks is not None or self.max_seconds is not None
         if assembly.n_parts > FULL_TABLE_MAX_PARTS and not budget:
             log.warning(
@@ -267,7 +278,7 @@ class VerifiedSearch:
         events = search_steps(result, steps.checker, RECORDED_EVENTS)
         settings = {"name": "verified", **asdict(self)}  # StrEnum values serialise as names
         plan = search_plan(result, steps.checker, truth, settings, 0.0, events)
-        return replace(
+        return result, replace(
             plan, search=replace(plan.search, record_seconds=time.perf_counter() - start)
         )
 

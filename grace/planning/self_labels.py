@@ -18,15 +18,28 @@ label at all. An assembly the search proved infeasible (every order refuted by s
 checks, or by the precedences every order keeps) gets the infeasible label of the data set: its
 empty state, with no valid part. An assembly the search left "not found within budget" gets
 none.
+
+The mask (`plan_labels(..., negatives=)`, `task.mask_unknown`) keeps only what is known: in a
+state on the verified orders, the parts that start a verified continuation (1), the parts known
+not to (0: the steps the simulator refused there during the search, and those the checks' own
+fixation rule refuses, grace/planning/fixation_prior.py, which no order takes) and the placed
+parts; every other part carries no loss (`LabelledAssembly.known`). An infeasibility proof
+is known for every part.
 """
 
 from __future__ import annotations
 
-from grace.domain.assembly import Assembly
+from collections.abc import Callable
+
+from grace.domain.assembly import Assembly, full_mask
 from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
+from grace.planning.fixation_prior import FixationPrior
 from grace.planning.plans import Plan
-from grace.planning.search import Outcome
+from grace.planning.search import Outcome, SearchResult
+
+Negatives = Callable[[int], int]
+"""`negatives(state)`: the parts known not to be a valid next step in `state` (a bitmask)."""
 
 VERIFIED_LABELS = "verified"
 """`info["labels"]` of a self-labelled assembly (the brute-forced ones say "brute_force")."""
@@ -41,9 +54,30 @@ def verified_orders(plan: Plan) -> list[tuple[int, ...]]:
     ]
 
 
-def plan_labels(plan: Plan, assembly: Assembly) -> LabelledAssembly | None:
+def search_negatives(result: SearchResult, prior: FixationPrior) -> Negatives:
+    """The steps `result`'s search saw the simulator refuse, and those the exact fixation
+    `prior` (`FixationPrior.of_steps`) refuses: a refused placement is no valid next step, and
+    the prior refuses only steps no order takes."""
+    refused: dict[int, int] = {}
+    for event in result.events:
+        if event.kind == "refused":
+            refused[event.state] = refused.get(event.state, 0) | 1 << event.part
+    full = full_mask(len(prior.enablers))
+
+    def negatives(state: int) -> int:
+        barred = sum(1 << p for p in range(len(prior.enablers)) if not prior.allows(state, p))
+        return (refused.get(state, 0) | barred) & full & ~state
+
+    return negatives
+
+
+def plan_labels(
+    plan: Plan, assembly: Assembly, negatives: Negatives | None = None
+) -> LabelledAssembly | None:
     """`assembly` labelled from its verified search's `plan` (module docstring), or None when
-    the plan has neither a verified order nor a proof of infeasibility."""
+    the plan has neither a verified order nor a proof of infeasibility. With `negatives`, the
+    label of a state covers only its verified valid parts, `negatives(state)` and its placed
+    parts (`LabelledAssembly.known`); without, every part's label counts."""
     if plan.n_parts != assembly.n_parts:
         raise ValueError(f"a plan of {plan.n_parts} parts for {assembly.n_parts} ({plan.name})")
     orders = verified_orders(plan)
@@ -51,7 +85,17 @@ def plan_labels(plan: Plan, assembly: Assembly) -> LabelledAssembly | None:
     if plan.search is not None:
         info |= {"checks": plan.search.checks, "refused": plan.search.refused.count}
     if orders:
-        return LabelledAssembly(assembly, GroundTruth.from_orders(assembly.n_parts, orders), info)
+        truth = GroundTruth.from_orders(assembly.n_parts, orders)
+        known = None
+        if negatives is not None:
+            known = {
+                int(s): int(s) | int(c) | negatives(int(s))
+                for s, c in zip(truth.states, truth.completable, strict=True)
+            }
+            open_parts = [(full_mask(assembly.n_parts) & ~s).bit_count() for s in known]
+            told = [(k & ~s).bit_count() for s, k in known.items()]
+            info["known_share"] = sum(told) / max(1, sum(open_parts))
+        return LabelledAssembly(assembly, truth, info, known)
     if plan.outcome == Outcome.infeasible:
         return LabelledAssembly(assembly, GroundTruth.from_orders(assembly.n_parts, []), info)
     return None

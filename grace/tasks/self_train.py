@@ -6,7 +6,8 @@ assemblies cannot afford. Here each round r = 1..R draws `task.sizes` new unlabe
 (seed `task.draw_seed`, no ground truth: grace/data/unlabelled.py; copies of a test
 assembly dropped by layout), plans each with the verified search of `planner=` and the previous
 round's model, and labels it from the plan's verified orders only (grace/planning/
-self_labels.py: a partial label); then a fresh model (same seed, `task.fit`, the training entry
+self_labels.py: a partial label, masked to what the search knows unless
+`task.mask_unknown=false`); then a fresh model (same seed, `task.fit`, the training entry
 of every task) trains on the protocol fold's training assemblies plus every self-labelled one so
 far, and is scored on the fold's test assemblies (`evaluate_by_size`, docs/metrics.md). Round 0
 is the model trained on the original set only (R = 0). `task.labels=brute_force` labels the
@@ -62,6 +63,8 @@ class SelfTrainSettings(TaskSettings):
     # their generator seed (not the data set's `dataset.seed`)
     draw_seed: int = field(default=MISSING, metadata=WEIGHTS)
     labels: Labels = field(default=Labels.verified, metadata=WEIGHTS)
+    # verified labels: no loss on the parts whose label the search does not know
+    mask_unknown: bool = field(default=True, metadata=WEIGHTS)
     # the protocol's fold: its training, validation and test assemblies
     fold: int = field(default=0, metadata=WEIGHTS)
     # λ of P@1 and of "no complete sequence" (docs/metrics.md)
@@ -94,7 +97,7 @@ def run(cfg: DictConfig) -> float:
                 f"planner={OmegaConf.select(cfg, 'planner._target_')} is not a verified search; "
                 "fix: task=self_train labels by planner=verified (drop planner=topk)"
             )
-        label = search_labeller(search, simulator)
+        label = search_labeller(search, simulator, bool(task.mask_unknown))
     fit_module = instantiate(task.fit)
 
     def fit(samples: list[LabelledAssembly], r: int) -> Scorer:
@@ -105,7 +108,8 @@ def run(cfg: DictConfig) -> float:
         return size_figures(metrics)
 
     settings = {
-        "labels": str(task.labels), "rounds": int(task.rounds), "sizes": sizes,
+        "labels": str(task.labels), "mask_unknown": bool(task.mask_unknown),
+        "rounds": int(task.rounds), "sizes": sizes,
         "draw_seed": int(task.draw_seed), "fold": int(task.fold), "seed": int(cfg.seed),
         "train": len(train), "val": len(val), "test": len(test),
         "planner": OmegaConf.to_container(cfg.planner, resolve=True),

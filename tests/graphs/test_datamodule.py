@@ -7,6 +7,7 @@ from hydra.utils import instantiate
 from torch.utils.data import DataLoader
 
 from grace.domain.assembly import full_mask
+from grace.domain.sample import LabelledAssembly
 from grace.errors import UserError
 from grace.graphs.batches import collate_dense, collate_graphs
 from grace.graphs.datamodule import (
@@ -266,3 +267,29 @@ def test_batches_carry_the_ground_truths_placeable_parts_whatever_the_labels(sam
             assert batch.placeable[row, : truth.n_parts].tolist() == expected.tolist()
         assert torch.all(batch.placeable[~batch.mask] == 0)
         assert torch.all(batch.placeable >= (batch.labels == 1).float())
+
+
+def test_a_partial_label_leaves_its_unknown_parts_out_of_the_loss_mask(samples):
+    """Parts a partial label does not know (`LabelledAssembly.known`) are out of `mask`, so no
+    loss reads their targets; every part of the other samples stays in."""
+    partial = next(s for s in samples if s.truth.feasible and s.size >= 5)
+    others = [s for s in samples if s is not partial]
+    states = training_states(partial, "orders")[0]
+    known = {int(s): int(s) | 0b1 for s in states}  # placed parts and part 0 only
+    masked = LabelledAssembly(partial.assembly, partial.truth, partial.info, known)
+    kw = {"batch_size": 4096, "states": "orders"}
+    batch = next(
+        iter(StateDataModule([], [masked, *others], GraphEncoding(), **kw).val_dataloader())
+    )
+    plain = next(
+        iter(StateDataModule([], [partial, *others], GraphEncoding(), **kw).val_dataloader())
+    )
+    assert torch.equal(batch.labels, plain.labels) and torch.equal(batch.flags, plain.flags)
+    ours = batch.state_assembly == 0  # validation keeps the samples' order
+    assert torch.equal(batch.mask[~ours], plain.mask[~ours])
+    bits = 1 << torch.arange(batch.flags.shape[1])
+    for row in torch.nonzero(ours).flatten().tolist():
+        state = int((batch.flags[row].long() * bits).sum())
+        kept = batch.mask[row].nonzero().flatten().tolist()
+        assert kept == [p for p in range(partial.size) if known[state] >> p & 1]
+    assert int(ours.sum()) == len(states) and batch.mask[ours].sum() < plain.mask[ours].sum()

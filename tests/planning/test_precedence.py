@@ -3,8 +3,7 @@ refutes a world that has an order (checked against the brute force on random wor
 
 import numpy as np
 import pytest
-from planning_fakes import MaskSteps, fixed_scores
-from test_search import random_world
+from planning_fakes import MaskSteps, fixed_scores, random_world
 
 from grace.planning.fixation_prior import FixationPrior
 from grace.planning.precedence import refuted

@@ -8,7 +8,7 @@ import itertools
 
 import numpy as np
 import pytest
-from planning_fakes import MaskSteps, fixed_scores, line_assembly
+from planning_fakes import MaskSteps, fixed_scores, line_assembly, random_world
 
 from grace.planning.fixation_prior import FixationPrior
 from grace.planning.search import Direction, Frontier, Outcome, VerifiedSearch
@@ -134,31 +134,6 @@ def test_a_part_no_option_of_which_is_usable_refutes_the_assembly_at_once(direct
     rows = {0: [0.1, 0.9, 0.1], 0b111: [0.1, 0.9, 0.1]}
     result = VerifiedSearch(direction=direction).search(fixed_scores(rows, 3), world)
     assert result.outcome == Outcome.infeasible and result.checks == 1
-
-
-def random_world(n: int, rng: np.random.Generator) -> tuple[list[list], list[int]]:
-    """Random options (0–3 per part, each blocked by 0–2 others, a third of them needing one
-    more part placed first, as an open clamp in the way does) and a random connected contact
-    graph."""
-    touch = [0] * n
-    for p in range(1, n):
-        q = int(rng.integers(p))
-        touch[p] |= 1 << q
-        touch[q] |= 1 << p
-    masks = []
-    for p in range(n):
-        options = []
-        for _ in range(int(rng.integers(0, 4))):
-            others = [q for q in range(n) if q != p]
-            chosen = rng.choice(others, size=int(rng.integers(0, 3)), replace=False)
-            blockers = sum(1 << int(q) for q in chosen)
-            free = [q for q in others if not blockers >> q & 1]
-            if rng.random() < 1 / 3:
-                options.append((blockers, 1 << int(rng.choice(free))))
-            else:
-                options.append(blockers)
-        masks.append(options)
-    return masks, touch
 
 
 @pytest.mark.parametrize("seed", range(12))

@@ -9,8 +9,13 @@ import numpy as np
 import pytest
 from grace_tests_conftest import accepted, fake_plan
 from hydra.utils import instantiate
+from planning_fakes import MaskSteps, fixed_scores, line_assembly, random_world
 
-from grace.planning.self_labels import plan_labels, verified_orders
+from grace.domain.assembly import full_mask
+from grace.planning.fixation_prior import FixationPrior
+from grace.planning.search import Direction, VerifiedSearch
+from grace.planning.self_labels import plan_labels, search_negatives, verified_orders
+from grace.planning.step_checks import brute_force
 
 
 def row_world(fake_simulator, n: int, seed: int):
@@ -64,3 +69,52 @@ def test_a_proof_of_infeasibility_labels_the_empty_state_and_a_budget_gives_none
     assert (
         plan_labels(fake_plan(assembly, can_place, [], "not found within budget"), assembly) is None
     )
+
+
+def test_the_mask_keeps_only_labels_the_brute_force_agrees_with():
+    """With the search's negatives, every part a state's label covers has the brute force's
+    label there; the parts it leaves out include valid ones the partial label calls invalid."""
+    hidden = covered = 0
+    for seed, direction in itertools.product(range(30), Direction):
+        masks, touch = random_world(7, np.random.default_rng(seed))
+        truth = brute_force(MaskSteps(masks, touch))
+        if not truth.feasible:
+            continue
+        prior = FixationPrior.of_steps(MaskSteps(masks, touch))
+        table = np.random.default_rng(seed).random((128, 7))
+        result = VerifiedSearch(k=2, direction=direction).search(
+            lambda s, t=table: t[s], MaskSteps(masks, touch), prior.allows, prior_proves=True
+        )
+        world = MaskSteps(masks, touch)
+        plan = fake_plan(
+            line_assembly(7),
+            lambda s, p, w=world: w.check(s, p).feasible,
+            [r.sequence for r in result.orders],
+        )
+        sample = plan_labels(plan, line_assembly(7), search_negatives(result, prior))
+        assert set(sample.known) == set(sample.truth.states.tolist())
+        for state, known in sample.known.items():
+            if state == full_mask(7):
+                continue
+            assert known & state == state  # placed parts: known to be no next step
+            expected = truth.label(state)
+            assert sample.truth.label(state) & known == expected & known
+            hidden += (expected & ~known & ~sample.truth.label(state)).bit_count()
+            covered += (known & ~state).bit_count()
+        assert 0 < sample.info["known_share"] <= 1
+    assert hidden > 0 and covered > 0
+
+
+def test_the_searchs_negatives_are_its_refusals_and_the_steps_fixation_refuses():
+    masks, touch = random_world(7, np.random.default_rng(3))
+    prior = FixationPrior.of_steps(MaskSteps(masks, touch))
+    result = VerifiedSearch(k=1).search(
+        fixed_scores({}, 7), MaskSteps(masks, touch), prior.allows, prior_proves=True
+    )
+    negatives = search_negatives(result, prior)
+    refused = [e for e in result.events if e.kind == "refused"]
+    assert refused and all(negatives(e.state) >> e.part & 1 for e in refused)
+    barred = [(s, p) for s in range(128) for p in range(7) if not s >> p & 1]
+    barred = [(s, p) for s, p in barred if not prior.allows(s, p)]
+    assert barred and all(negatives(s) >> p & 1 for s, p in barred)
+    assert all(negatives(s) & s == 0 for s in range(128))
