@@ -8,12 +8,11 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable, Sequence
-from enum import StrEnum
 from typing import Any
 
 from grace.domain.assembly import Assembly
 from grace.domain.sample import LabelledAssembly
-from grace.evaluation.self_train import RoundFigures
+from grace.evaluation.self_train import Labels, RoundFigures
 from grace.planning.cell_steps import SimulatorSteps
 from grace.planning.fixation_prior import FixationPrior
 from grace.planning.search import VerifiedSearch
@@ -21,13 +20,6 @@ from grace.planning.self_labels import plan_labels, search_negatives
 from grace.planning.sequences import Scorer
 
 log = logging.getLogger(__name__)
-
-
-class Labels(StrEnum):
-    """Who labels the drawn assemblies (`task.labels`)."""
-
-    verified = "verified"  # the verified search with the current model (self-training)
-    brute_force = "brute_force"  # the simulator's ground truth (the upper bound)
 
 
 Fit = Callable[[list[LabelledAssembly], int], Scorer]

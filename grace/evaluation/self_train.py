@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
+from enum import StrEnum
 from typing import Any
 
 import numpy as np
@@ -18,6 +19,14 @@ from grace.evaluation.tables import cell, markdown_table
 
 SELF_TRAIN_FILE = "self_train.json"
 """What task=self_train writes into its run folder and task=gather pools."""
+
+
+class Labels(StrEnum):
+    """Who labels the drawn assemblies (`task.labels`)."""
+
+    verified = "verified"  # the verified search with the current model (self-training)
+    brute_force = "brute_force"  # the simulator's ground truth (the upper bound)
+
 
 REPLICATE_SETTINGS = ("seed",)
 """Settings in which runs pooled into one row may differ: they repeat, not vary, a run."""
@@ -101,7 +110,7 @@ def self_train_markdown(settings: Mapping[str, Any], rounds: Sequence[RoundFigur
 
 
 def _label_source(settings: Mapping[str, Any]) -> str:
-    if settings["labels"] != "verified":
+    if Labels(settings["labels"]) is not Labels.verified:
         return str(settings["labels"])
     return "verified, masked" if settings.get("mask_unknown", False) else "verified, unmasked"
 

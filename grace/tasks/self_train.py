@@ -36,12 +36,11 @@ from grace.domain.sample import LabelledAssembly
 from grace.errors import UserError
 from grace.evaluation.evaluate import evaluate_by_size
 from grace.evaluation.expert_iteration import (
-    Labels,
     brute_force_labeller,
     expert_iteration,
     search_labeller,
 )
-from grace.evaluation.self_train import RoundFigures, self_train_markdown, size_figures
+from grace.evaluation.self_train import Labels, RoundFigures, self_train_markdown, size_figures
 from grace.model.scoring import make_scorer
 from grace.planning.search import VerifiedSearch
 from grace.planning.sequences import Scorer
