@@ -35,7 +35,16 @@ def labelled(fake_simulator):
     return feasible[:8] + infeasible[:8]
 
 
-@pytest.mark.parametrize("name", ["svm_linear", "svm_rbf", "mlp", "knn"])
+@pytest.mark.parametrize(
+    "name",
+    [
+        "svm_linear",
+        "mlp",
+        # the two slowest configs (about 8 s each here) run under -m slow
+        pytest.param("svm_rbf", marks=pytest.mark.slow),
+        pytest.param("knn", marks=pytest.mark.slow),
+    ],
+)
 def test_classifier_configs_score_every_test_size(cfg_factory, labelled, name):
     cfg = cfg_factory(f"classifier={name}")
     classifiers = {name: instantiate(cfg.classifier.estimator)}

@@ -127,7 +127,13 @@ def test_fast_path_equals_pyg_path(
 
 
 @pytest.mark.parametrize(
-    ("state_blocks", "pool"), [(0, "sum"), (1, "sum"), (0, "mean"), (0, "max")]
+    ("state_blocks", "pool"),
+    [
+        pytest.param(0, "sum", marks=SLOW),
+        pytest.param(1, "sum", marks=SLOW),
+        pytest.param(0, "mean", marks=SLOW),
+        (0, "max"),
+    ],
 )
 def test_one_assembly_alone_equals_pyg_path(samples, state_blocks, pool):
     """A batch of one assembly (planning, or one large assembly's chunk in training) takes the
