@@ -209,7 +209,7 @@ class StateDataset:
         self.partial = any(sample.known is not None for sample in self.samples)
         """Whether some labels are partial (batches then leave unknown parts out of `mask`)."""
         # (sample index, states, label masks, loss weights, feasible dead-end masks, known masks)
-        self.chunks: list[tuple[int, np.ndarray, ...]] = []
+        self.chunks: list[tuple[int, *tuple[np.ndarray, ...]]] = []
         per_sample = [training_states(sample, states) for sample in self.samples]
         steps = step_weights(self.samples, [s for s, _ in per_sample]) if balance_steps else None
         for i, (s, y) in enumerate(per_sample):
