@@ -31,7 +31,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from grace.domain.assembly import Assembly, full_mask
+from grace.domain.assembly import Assembly, full_mask, mask_to_parts
 from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
 from grace.planning.fixation_prior import FixationPrior
@@ -65,8 +65,9 @@ def search_negatives(result: SearchResult, prior: FixationPrior) -> Negatives:
     full = full_mask(len(prior.enablers))
 
     def negatives(state: int) -> int:
-        barred = sum(1 << p for p in range(len(prior.enablers)) if not prior.allows(state, p))
-        return (refused.get(state, 0) | barred) & full & ~state
+        unplaced = full & ~state
+        barred = sum(1 << p for p in mask_to_parts(unplaced) if not prior.allows(state, p))
+        return (refused.get(state, 0) | barred) & unplaced
 
     return negatives
 
