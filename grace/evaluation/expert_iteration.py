@@ -16,7 +16,12 @@ from grace.evaluation.self_train import Labels, RoundFigures
 from grace.planning.cell_steps import SimulatorSteps
 from grace.planning.fixation_prior import FixationPrior
 from grace.planning.search import VerifiedSearch
-from grace.planning.self_labels import plan_labels, search_negatives
+from grace.planning.self_labels import (
+    plan_labels,
+    probe_steps,
+    search_negatives,
+    verified_orders,
+)
 from grace.planning.sequences import Scorer
 
 log = logging.getLogger(__name__)
@@ -30,15 +35,24 @@ Score = Callable[[Scorer], dict]
 """`score(scorer)`: the test figures per size (`size_figures`)."""
 
 
-def search_labeller(search: VerifiedSearch, simulator: Any, mask: bool = True) -> Labeller:
+def search_labeller(
+    search: VerifiedSearch, simulator: Any, mask: bool = True, probe_checks: int | None = None
+) -> Labeller:
     """Labels from the verified search's checked plan (grace/planning/self_labels.py); with
-    `mask`, only the parts whose label the search knows carry a loss."""
+    `mask`, only the parts whose label the search knows carry a loss; with `probe_checks`,
+    the steps out of the orders' states that the search left unknown are decided by a
+    sub-search of at most that many checks each (`probe_steps`)."""
 
     def label(scorer: Scorer, assembly: Assembly) -> LabelledAssembly | None:
         steps = SimulatorSteps(simulator, assembly)
         result, plan = search.checked(scorer, assembly, steps)
-        negatives = search_negatives(result, FixationPrior.of_steps(steps)) if mask else None
-        return plan_labels(plan, assembly, negatives)
+        prior = FixationPrior.of_steps(steps)
+        known = search_negatives(result, prior)
+        probed = None
+        if probe_checks is not None:
+            orders = verified_orders(plan)
+            probed = probe_steps(orders, known, steps, prior, probe_checks) if orders else None
+        return plan_labels(plan, assembly, known if mask else None, probed)
 
     return label
 

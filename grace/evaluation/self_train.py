@@ -112,7 +112,9 @@ def self_train_markdown(settings: Mapping[str, Any], rounds: Sequence[RoundFigur
 def _label_source(settings: Mapping[str, Any]) -> str:
     if Labels(settings["labels"]) is not Labels.verified:
         return str(settings["labels"])
-    return "verified, masked" if settings.get("mask_unknown", False) else "verified, unmasked"
+    source = "verified, masked" if settings.get("mask_unknown", False) else "verified, unmasked"
+    probe = settings.get("probe_checks")
+    return source if probe is None else f"{source}, probed ({probe} checks)"
 
 
 def pooled_markdown(runs: Sequence[Mapping[str, Any]]) -> str:

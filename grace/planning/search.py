@@ -217,6 +217,7 @@ class VerifiedSearch:
         refute: Refutation | None = None,
         exhaust: Callable[[], GroundTruth] | None = None,
         prior_proves: bool = False,
+        start: int = 0,
     ) -> SearchResult:
         """Search one assembly: `scores(state)` gives the policy's score of each step out of
         `state` in this search's direction, `oracle` the simulator's step checks; the steps
@@ -225,8 +226,15 @@ class VerifiedSearch:
         prove the assembly infeasible without a step check; `exhaust()`, the brute force on the same
         checks, decides feasibility once the search has spent `exhaustive_after` × N checks
         on an assembly of at most `exhaustive_parts` parts without a verdict: a proof then
-        costs at most the brute force's on top (its checks are added to the search's)."""
-        return _Search(self, scores, oracle, prior, refute, exhaust, prior_proves).run()
+        costs at most the brute force's on top (its checks are added to the search's).
+        `start` (forward only): the parts already placed, so the search completes that state
+        (its orders list the parts placed after it; `refute` and `exhaust`, which speak of the
+        whole assembly, must then be None)."""
+        if start and (self.direction != Direction.forward or refute or exhaust):
+            raise ValueError("a search from a placed state runs forward, without refute/exhaust")
+        if start == full_mask(oracle.n_parts):
+            raise ValueError("a search from the complete assembly has nothing left to place")
+        return _Search(self, scores, oracle, prior, refute, exhaust, prior_proves, start).run()
 
     def plan(self, scorer: Scorer, assembly: Assembly, oracle: StepOracle) -> SearchResult:
         """Search `assembly` with the policy `scorer` (its states scored lazily, forward one
@@ -295,6 +303,7 @@ class _Search:
         refute: Refutation | None = None,
         exhaust: Callable[[], GroundTruth] | None = None,
         prior_proves: bool = False,
+        start: int = 0,
     ) -> None:
         self.config = config
         self.prior = prior
@@ -308,7 +317,7 @@ class _Search:
         self.oracle = oracle
         self.n = oracle.n_parts
         self.full = full_mask(self.n)
-        self.start_state, goal = (0, self.full) if self.forward else (self.full, 0)
+        self.start_state, goal = (start, self.full) if self.forward else (self.full, 0)
         self.nodes: dict[int, _Node] = {}
         self.heap: list[tuple[float, float, int, int]] = []
         self.pushes = 0
@@ -341,6 +350,12 @@ class _Search:
 
     def _after(self, state: int, part: int) -> int:
         return state | 1 << part if self.forward else state & ~(1 << part)
+
+    @property
+    def _origin(self) -> int:
+        """The state the orders start from, forward (the empty one unless parts were placed
+        before the search)."""
+        return self.start_state if self.forward else 0
 
     def _depth(self, state: int) -> int:
         """Steps from the start."""
@@ -391,7 +406,7 @@ class _Search:
             state, part = node.via
             parts.append(part)
             node = self.nodes[state]
-        return parts[::-1]
+        return [*mask_to_parts(self.start_state), *parts[::-1]]
 
     # What is known ---------------------------------------------------------------------------
 
@@ -605,22 +620,22 @@ class _Search:
     def _best_orders(self) -> list[Ranked]:
         """The k most probable verified orders: A* over the verified steps, with the exact
         best completion of each state as the bound (every verified step completes)."""
-        steps = self._order_steps()
-        if 0 not in steps:
+        steps, start = self._order_steps(), self._origin
+        if start not in steps:
             return []
         rest = {self.full: 0.0}  # best log-probability still to come
         for state in sorted(steps, key=int.bit_count, reverse=True):
             rest[state] = max(
                 _log(score) + rest[state | 1 << part] for part, score in steps[state].items()
             )
-        heap: list[tuple[float, int, tuple[int, ...], float]] = [(-rest[0], 0, (), 0.0)]
+        heap: list[tuple[float, int, tuple[int, ...], float]] = [(-rest[start], 0, (), 0.0)]
         out: list[Ranked] = []
         pushes = 0
         while heap and (self.config.k is None or len(out) < self.config.k):
             _, _, prefix, logp = heapq.heappop(heap)
-            state = sum(1 << p for p in prefix)
+            state = start | sum(1 << p for p in prefix)
             if state == self.full:
-                probs = tuple(steps[s][p] for s, p in _prefix_steps(prefix))
+                probs = tuple(steps[s][p] for s, p in _prefix_steps(prefix, start))
                 out.append(Ranked(prefix, float(np.prod(probs)), probs))
                 continue
             for part, score in steps[state].items():
@@ -637,7 +652,7 @@ class _Search:
         for before, parts in self._order_steps().items():
             completable[before] = sum(1 << p for p in parts)
         reached = {b | 1 << p for b, parts in self.accepted.items() for p in mask_to_parts(parts)}
-        states = sorted({0, *self.accepted, *reached})
+        states = sorted({self._origin, *self.accepted, *reached})
         return GroundTruth(
             n_parts=self.n,
             states=np.array(states, dtype=np.int64),
@@ -646,9 +661,9 @@ class _Search:
         )
 
 
-def _prefix_steps(order: tuple[int, ...]) -> list[tuple[int, int]]:
-    """(state before, part) of each step of `order`."""
-    out, state = [], 0
+def _prefix_steps(order: tuple[int, ...], start: int = 0) -> list[tuple[int, int]]:
+    """(state before, part) of each step of `order`, placed after the parts of `start`."""
+    out, state = [], start
     for part in order:
         out.append((state, part))
         state |= 1 << part

@@ -30,13 +30,17 @@ is known for every part.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+
+import numpy as np
 
 from grace.domain.assembly import Assembly, full_mask, mask_to_parts
 from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
 from grace.planning.fixation_prior import FixationPrior
 from grace.planning.plans import Plan
-from grace.planning.search import Outcome, SearchResult
+from grace.planning.search import Direction, Outcome, SearchResult, VerifiedSearch
+from grace.planning.step_checks import StepOracle
 
 Negatives = Callable[[int], int]
 """`negatives(state)`: the parts known not to be a valid next step in `state` (a bitmask)."""
@@ -72,28 +76,121 @@ def search_negatives(result: SearchResult, prior: FixationPrior) -> Negatives:
     return negatives
 
 
+@dataclass
+class Probe:
+    """What `probe_steps` learnt: `orders`, one new verified order per step found to start a
+    verified continuation; `dead_ends`, one partial order per step found to start none although
+    its check accepts it (a verified prefix, then that step, into a state proved dead);
+    `refused`, per state, the steps the probe saw refused; `open_steps`, the steps left unknown
+    (their sub-search ran out of checks); `checks`, the step checks asked."""
+
+    orders: list[tuple[int, ...]] = field(default_factory=list)
+    dead_ends: list[tuple[int, ...]] = field(default_factory=list)
+    refused: dict[int, int] = field(default_factory=dict)
+    open_steps: int = 0
+    checks: int = 0
+
+    def refuse(self, state: int, part: int) -> None:
+        self.refused[state] = self.refused.get(state, 0) | 1 << part
+
+    def negatives(self, also: Negatives) -> Negatives:
+        """`also` and what the probe proved: the steps it saw refused and those into dead
+        states."""
+        into_dead: dict[int, int] = {}
+        for *prefix, part in self.dead_ends:
+            before = sum(1 << p for p in prefix)
+            into_dead[before] = into_dead.get(before, 0) | 1 << part
+        return lambda s: also(s) | self.refused.get(s, 0) | into_dead.get(s, 0)
+
+
+def probe_steps(
+    orders: list[tuple[int, ...]],
+    known: Negatives,
+    steps: StepOracle,
+    prior: FixationPrior,
+    budget: int,
+) -> Probe:
+    """Decide the unknown steps out of the states on `orders` (the verified orders): for each
+    state and each part that neither starts one of them nor is in `known(state)`, check the
+    step, and if the check accepts it, search forward from the state after it for one
+    verified completion (`VerifiedSearch.search(start=)`, at most `budget` checks): found, the
+    step is valid (its order is added); proved impossible, the step leads into a dead end;
+    neither, it stays unknown. The question is feasibility, not preference, so the sub-search
+    needs no policy: it tries parts in index order and backjumps on what it learns. Cost: at
+    most 1 + `budget` checks per unknown step of the states on the orders, where the brute
+    force decides every reachable state."""
+    n = steps.n_parts
+    uniform = np.full(n, 0.5)
+    full = full_mask(n)
+    truth = GroundTruth.from_orders(n, orders)
+    reach: dict[int, tuple[int, ...]] = {}  # a verified prefix to each state on the orders
+    for order in orders:
+        for i in range(n + 1):
+            reach.setdefault(sum(1 << p for p in order[:i]), tuple(order[:i]))
+    search = VerifiedSearch(k=1, direction=Direction.forward)
+    probe, first = Probe(), steps.checks
+    for state, valid in zip(truth.states.tolist(), truth.completable.tolist(), strict=True):
+        for part in mask_to_parts(full & ~state & ~valid & ~known(state)):
+            bit = 1 << part
+            if not steps.check(state, part).feasible:
+                probe.refuse(state, part)
+                continue
+            budgeted = replace(search, max_checks=steps.checks + budget)
+            result = budgeted.search(
+                lambda _: uniform, steps, prior.allows, prior_proves=True, start=state | bit
+            )
+            for event in result.events:
+                if event.kind == "refused":
+                    probe.refuse(event.state, event.part)
+            if result.outcome == Outcome.verified:
+                probe.orders.append((*reach[state], part, *result.orders[0].sequence))
+            elif result.outcome == Outcome.infeasible:
+                probe.dead_ends.append((*reach[state], part))
+            else:
+                probe.open_steps += 1
+    probe.checks = steps.checks - first
+    return probe
+
+
 def plan_labels(
-    plan: Plan, assembly: Assembly, negatives: Negatives | None = None
+    plan: Plan,
+    assembly: Assembly,
+    negatives: Negatives | None = None,
+    probed: Probe | None = None,
 ) -> LabelledAssembly | None:
     """`assembly` labelled from its verified search's `plan` (module docstring), or None when
     the plan has neither a verified order nor a proof of infeasibility. With `negatives`, the
     label of a state covers only its verified valid parts, `negatives(state)` and its placed
-    parts (`LabelledAssembly.known`); without, every part's label counts."""
+    parts (`LabelledAssembly.known`); without, every part's label counts. `probed`
+    (`probe_steps`) adds its orders, its dead ends (as the brute force labels them: the step in
+    is placeable but not valid, every label of the dead state is 0 and known) and, to
+    `negatives`, what it proved."""
     if plan.n_parts != assembly.n_parts:
         raise ValueError(f"a plan of {plan.n_parts} parts for {assembly.n_parts} ({plan.name})")
-    orders = verified_orders(plan)
+    orders, dead_ends = verified_orders(plan), []
+    if probed is not None:
+        orders, dead_ends = orders + probed.orders, probed.dead_ends
+        negatives = None if negatives is None else probed.negatives(negatives)
     info = {"labels": VERIFIED_LABELS, "outcome": plan.outcome, "verified_orders": len(orders)}
     if plan.search is not None:
         info |= {"checks": plan.search.checks, "refused": plan.search.refused.count}
+    if probed is not None:
+        info |= {
+            "probe_orders": len(probed.orders),
+            "probe_checks": probed.checks,
+            "probe_open_steps": probed.open_steps,
+        }
     if orders:
-        truth = GroundTruth.from_orders(assembly.n_parts, orders)
+        truth = GroundTruth.from_orders(assembly.n_parts, orders, dead_ends)
         known = None
         if negatives is not None:
+            full = full_mask(assembly.n_parts)
+            # a state no verified order continues from is the complete one or proved dead
             known = {
-                int(s): int(s) | int(c) | negatives(int(s))
+                int(s): int(s) | int(c) | negatives(int(s)) if c else full
                 for s, c in zip(truth.states, truth.completable, strict=True)
             }
-            open_parts = [(full_mask(assembly.n_parts) & ~s).bit_count() for s in known]
+            open_parts = [(full & ~s).bit_count() for s in known]
             told = [(k & ~s).bit_count() for s, k in known.items()]
             info["known_share"] = sum(told) / max(1, sum(open_parts))
         return LabelledAssembly(assembly, truth, info, known)

@@ -64,6 +64,8 @@ class SelfTrainSettings(TaskSettings):
     labels: Labels = field(default=Labels.verified, metadata=WEIGHTS)
     # verified labels: no loss on the parts whose label the search does not know
     mask_unknown: bool = field(default=True, metadata=WEIGHTS)
+    # verified labels: checks per sub-search deciding a step the search left unknown; None: none
+    probe_checks: int | None = field(default=None, metadata=WEIGHTS)
     # the protocol's fold: its training, validation and test assemblies
     fold: int = field(default=0, metadata=WEIGHTS)
     # λ of P@1 and of "no complete sequence" (docs/metrics.md)
@@ -96,7 +98,8 @@ def run(cfg: DictConfig) -> float:
                 f"planner={OmegaConf.select(cfg, 'planner._target_')} is not a verified search; "
                 "fix: task=self_train labels by planner=verified (drop planner=topk)"
             )
-        label = search_labeller(search, simulator, bool(task.mask_unknown))
+        probe = None if task.probe_checks is None else int(task.probe_checks)
+        label = search_labeller(search, simulator, bool(task.mask_unknown), probe)
     fit_module = instantiate(task.fit)
 
     def fit(samples: list[LabelledAssembly], r: int) -> Scorer:
@@ -108,6 +111,7 @@ def run(cfg: DictConfig) -> float:
 
     settings = {
         "labels": str(task.labels), "mask_unknown": bool(task.mask_unknown),
+        "probe_checks": task.probe_checks,
         "rounds": int(task.rounds), "sizes": sizes,
         "draw_seed": int(task.draw_seed), "fold": int(task.fold), "seed": int(cfg.seed),
         "train": len(train), "val": len(val), "test": len(test),

@@ -256,3 +256,31 @@ def test_a_prior_without_the_fixation_rule_refuses_nothing():
     assert all(prior.allows(s, p) for s in range(16) for p in range(4) if not s >> p & 1)
     strict = FixationPrior.of_steps(MaskSteps(LATE_BLOCK, LINE))
     assert not strict.allows(0b1101, 1) and strict.allows(0b0001, 1)
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_a_search_from_a_placed_state_finds_exactly_the_brute_forces_completions(seed):
+    masks, touch = random_world(6, np.random.default_rng(seed))
+    truth = brute_force(MaskSteps(masks, touch))
+    exact = FixationPrior.of_steps(MaskSteps(masks, touch)).allows
+    orders = list(truth.orders())
+    for state in truth.states.tolist()[1:-1]:
+        placed = state.bit_count()
+        completions = {o[placed:] for o in orders if sum(1 << p for p in o[:placed]) == state}
+        for k, learn in itertools.product((1, None), (True, False)):
+            search = VerifiedSearch(k=k, direction=Direction.forward, learn_blocks=learn)
+            result = search.search(
+                fixed_scores({}, 6), MaskSteps(masks, touch), exact, prior_proves=True, start=state
+            )
+            found = {r.sequence for r in result.orders}
+            assert result.outcome == (Outcome.verified if completions else Outcome.infeasible)
+            assert found == completions if k is None else found <= completions
+            assert all(len(r.sequence) == 6 - placed for r in result.orders)
+
+
+def test_a_search_from_a_placed_state_runs_forward_and_has_something_left_to_place():
+    world = MaskSteps(LATE_BLOCK)
+    with pytest.raises(ValueError, match="runs forward"):
+        VerifiedSearch(direction=Direction.backward).search(fixed_scores({}, 4), world, start=1)
+    with pytest.raises(ValueError, match="nothing left"):
+        VerifiedSearch(direction=Direction.forward).search(fixed_scores({}, 4), world, start=FULL)

@@ -14,7 +14,12 @@ from planning_fakes import MaskSteps, fixed_scores, line_assembly, random_world
 from grace.domain.assembly import full_mask
 from grace.planning.fixation_prior import FixationPrior
 from grace.planning.search import Direction, VerifiedSearch
-from grace.planning.self_labels import plan_labels, search_negatives, verified_orders
+from grace.planning.self_labels import (
+    plan_labels,
+    probe_steps,
+    search_negatives,
+    verified_orders,
+)
 from grace.planning.step_checks import brute_force
 
 
@@ -71,10 +76,9 @@ def test_a_proof_of_infeasibility_labels_the_empty_state_and_a_budget_gives_none
     )
 
 
-def test_the_mask_keeps_only_labels_the_brute_force_agrees_with():
-    """With the search's negatives, every part a state's label covers has the brute force's
-    label there; the parts it leaves out include valid ones the partial label calls invalid."""
-    hidden = covered = 0
+def searched_worlds(k: int = 2):
+    """Feasible random 7-part worlds searched for `k` orders in both directions: (brute force,
+    the search's result, its plan, its negatives, the world's checks and exact prior)."""
     for seed, direction in itertools.product(range(30), Direction):
         masks, touch = random_world(7, np.random.default_rng(seed))
         truth = brute_force(MaskSteps(masks, touch))
@@ -82,7 +86,7 @@ def test_the_mask_keeps_only_labels_the_brute_force_agrees_with():
             continue
         prior = FixationPrior.of_steps(MaskSteps(masks, touch))
         table = np.random.default_rng(seed).random((128, 7))
-        result = VerifiedSearch(k=2, direction=direction).search(
+        result = VerifiedSearch(k=k, direction=direction).search(
             lambda s, t=table: t[s], MaskSteps(masks, touch), prior.allows, prior_proves=True
         )
         world = MaskSteps(masks, touch)
@@ -91,7 +95,15 @@ def test_the_mask_keeps_only_labels_the_brute_force_agrees_with():
             lambda s, p, w=world: w.check(s, p).feasible,
             [r.sequence for r in result.orders],
         )
-        sample = plan_labels(plan, line_assembly(7), search_negatives(result, prior))
+        yield truth, result, plan, search_negatives(result, prior), world, prior
+
+
+def test_the_mask_keeps_only_labels_the_brute_force_agrees_with():
+    """With the search's negatives, every part a state's label covers has the brute force's
+    label there; the parts it leaves out include valid ones the partial label calls invalid."""
+    hidden = covered = 0
+    for truth, _, plan, negatives, _, _ in searched_worlds():
+        sample = plan_labels(plan, line_assembly(7), negatives)
         assert set(sample.known) == set(sample.truth.states.tolist())
         for state, known in sample.known.items():
             if state == full_mask(7):
@@ -118,3 +130,38 @@ def test_the_searchs_negatives_are_its_refusals_and_the_steps_fixation_refuses()
     barred = [(s, p) for s, p in barred if not prior.allows(s, p)]
     assert barred and all(negatives(s) >> p & 1 for s, p in barred)
     assert all(negatives(s) & s == 0 for s in range(128))
+
+
+@pytest.mark.parametrize("budget", [10**6, 2])
+def test_the_probe_decides_the_steps_the_search_left_unknown_as_the_brute_force_does(budget):
+    """`probe_steps` labels a step out of a verified order's state valid only if a completion
+    exists, and a dead end only if none does (a placeable step into a state whose every label
+    is 0, as the brute force has it); with an unlimited budget it decides every step of those
+    states, with a small one it leaves some open but is never wrong."""
+    decided = left_open = dead_states = 0
+    for truth, _, plan, negatives, world, prior in searched_worlds():
+        orders = verified_orders(plan)
+        probed = probe_steps(orders, negatives, world, prior, budget)
+        sample = plan_labels(plan, line_assembly(7), negatives, probed)
+        assert all(o in set(truth.orders()) for o in probed.orders)
+        placeable = dict(zip(truth.states.tolist(), truth.placeable.tolist(), strict=True))
+        mine = zip(sample.truth.states.tolist(), sample.truth.placeable.tolist(), strict=True)
+        for state, steps in mine:
+            known = sample.known[state]
+            assert sample.truth.label(state) & known == truth.label(state) & known
+            assert steps & placeable[state] == steps  # every step in the label is placeable
+            dead_states += not sample.truth.label(state) and state != full_mask(7)
+        full = full_mask(7)
+        before = plan_labels(plan, line_assembly(7), negatives)
+        for state, known in before.known.items():
+            if state == full:
+                continue
+            after = sample.known[state]
+            assert after & known == known
+            decided += (after & ~known).bit_count()
+            if budget > 100:
+                assert after == full  # every step out of the orders' states is decided
+        left_open += probed.open_steps
+        assert sample.info["probe_checks"] == probed.checks
+    assert decided > 0 and dead_states > 0
+    assert (left_open > 0) == (budget < 100)

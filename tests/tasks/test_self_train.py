@@ -133,10 +133,11 @@ def test_the_task_writes_its_rounds(cfg_factory):
     cfg = cfg_factory(
         "task=self_train", "scale=smoke", "protocol=upward", "protocol.folds=2",
         "protocol.train_sizes=[3,4,5]", "protocol.test_sizes=[6,7]", "trainer.max_epochs=1",
-        "task.sizes={6: 2, 7: 2}", "task.rounds=1", "threads=1",
+        "task.sizes={6: 2, 7: 2}", "task.rounds=1", "threads=1", "task.probe_checks=20",
     )  # fmt: skip
     run(cfg)
     out = json.loads((Path(cfg.paths.output_dir) / "self_train.json").read_text())
+    assert out["settings"]["probe_checks"] == 20
     first, second = out["rounds"]
     assert (first["drawn"], second["drawn"]) == (0, 4)
     assert second["added"] == second["labelled"] == second["verified"] + second["infeasible"]
