@@ -25,6 +25,12 @@ not to (0: the steps the simulator refused there during the search, and those th
 fixation rule refuses, grace/planning/fixation_prior.py, which no order takes) and the placed
 parts; every other part carries no loss (`LabelledAssembly.known`). An infeasibility proof
 is known for every part.
+
+The probe (`probe_steps`, `task.probe_checks`) decides those unknown parts of the orders'
+states with the simulator: a step it finds a verified completion for is valid (its order joins
+the label), one whose check refuses it or whose every continuation it refutes is not; the
+latter enter the label as the brute force has them, a placeable step into a dead state whose
+every label is 0.
 """
 
 from __future__ import annotations
