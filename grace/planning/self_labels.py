@@ -13,8 +13,8 @@ placement there). A part the search never tried, or whose continuation it did no
 labelled 0 too although it may well complete: the search stops at `k` orders, so at a state
 with more valid parts than the orders through it, some valid parts are taught as invalid. With
 `datamodule.states=reachable` the network also gets no dead-end states of these assemblies (the
-search's refused continuations are not in the DAG). States off the verified orders carry no
-label at all. An assembly the search proved infeasible (every order refuted by simulator
+search's refused continuations are not in the DAG; the probe below adds some). States off the
+verified orders carry no label at all. An assembly the search proved infeasible (every order refuted by simulator
 checks, or by the precedences every order keeps) gets the infeasible label of the data set: its
 empty state, with no valid part. An assembly the search left "not found within budget" gets
 none.
