@@ -47,12 +47,12 @@ def search_labeller(
         steps = SimulatorSteps(simulator, assembly)
         result, plan = search.checked(scorer, assembly, steps)
         prior = FixationPrior.of_steps(steps)
-        known = search_negatives(result, prior)
+        negatives = search_negatives(result, prior)
+        orders = verified_orders(plan)
         probed = None
-        if probe_checks is not None:
-            orders = verified_orders(plan)
-            probed = probe_steps(orders, known, steps, prior, probe_checks) if orders else None
-        return plan_labels(plan, assembly, known if mask else None, probed)
+        if probe_checks is not None and orders:
+            probed = probe_steps(orders, negatives, steps, prior, probe_checks)
+        return plan_labels(plan, assembly, negatives if mask else None, probed)
 
     return label
 

@@ -14,10 +14,10 @@ labelled 0 too although it may well complete: the search stops at `k` orders, so
 with more valid parts than the orders through it, some valid parts are taught as invalid. With
 `datamodule.states=reachable` the network also gets no dead-end states of these assemblies (the
 search's refused continuations are not in the DAG; the probe below adds some). States off the
-verified orders carry no label at all. An assembly the search proved infeasible (every order refuted by simulator
-checks, or by the precedences every order keeps) gets the infeasible label of the data set: its
-empty state, with no valid part. An assembly the search left "not found within budget" gets
-none.
+verified orders carry no label at all. An assembly the search proved infeasible (every order
+refuted by simulator checks, or by the precedences every order keeps) gets the infeasible label
+of the data set: its empty state, with no valid part. An assembly the search left "not found
+within budget" gets none.
 
 The mask (`plan_labels(..., negatives=)`, `task.mask_unknown`) keeps only what is known: in a
 state on the verified orders, the parts that start a verified continuation (1), the parts known
