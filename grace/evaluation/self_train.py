@@ -129,9 +129,9 @@ def pooled_markdown(runs: Sequence[Mapping[str, Any]]) -> str:
     head += [f"strict P@1 A{s}" for s in sizes] + [f"no sequence A{s}" for s in sizes]
     rows = []
     for source, bodies in sorted(groups.items()):
-        fixed = [
-            {k: v for k, v in b["settings"].items() if k not in REPLICATE_SETTINGS} for b in bodies
-        ]
+        # a setting a run does not name (one added after it ran) is the null it defaults to
+        names = {k for b in bodies for k in b["settings"]} - set(REPLICATE_SETTINGS)
+        fixed = [{k: b["settings"].get(k) for k in names} for b in bodies]
         if any(f != fixed[0] for f in fixed):
             raise UserError(
                 f"{SELF_TRAIN_FILE}: runs of '{source}' labels differ in more than "
