@@ -35,7 +35,7 @@ every label is 0.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -45,7 +45,13 @@ from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
 from grace.planning.fixation_prior import FixationPrior
 from grace.planning.plans import Plan
-from grace.planning.search import Direction, Outcome, SearchResult, VerifiedSearch
+from grace.planning.search import (
+    Direction,
+    Outcome,
+    SearchEvent,
+    SearchResult,
+    VerifiedSearch,
+)
 from grace.planning.step_checks import StepOracle
 
 Negatives = Callable[[int], int]
@@ -64,14 +70,19 @@ def verified_orders(plan: Plan) -> list[tuple[int, ...]]:
     ]
 
 
+def add_refusals(events: Iterable[SearchEvent], into: dict[int, int]) -> dict[int, int]:
+    """`into`, per state, with the parts a search's `events` saw the simulator refuse there."""
+    for event in events:
+        if event.kind == "refused":
+            into[event.state] = into.get(event.state, 0) | 1 << event.part
+    return into
+
+
 def search_negatives(result: SearchResult, prior: FixationPrior) -> Negatives:
     """The steps `result`'s search saw the simulator refuse, and those the exact fixation
     `prior` (`FixationPrior.of_steps`) refuses: a refused placement is no valid next step, and
     the prior refuses only steps no order takes."""
-    refused: dict[int, int] = {}
-    for event in result.events:
-        if event.kind == "refused":
-            refused[event.state] = refused.get(event.state, 0) | 1 << event.part
+    refused = add_refusals(result.events, {})
     full = full_mask(len(prior.enablers))
 
     def negatives(state: int) -> int:
@@ -96,9 +107,6 @@ class Probe:
     open_steps: int = 0
     checks: int = 0
 
-    def refuse(self, state: int, part: int) -> None:
-        self.refused[state] = self.refused.get(state, 0) | 1 << part
-
     def negatives(self, also: Negatives) -> Negatives:
         """`also` and what the probe proved: the steps it saw refused and those into dead
         states."""
@@ -111,14 +119,14 @@ class Probe:
 
 def probe_steps(
     orders: list[tuple[int, ...]],
-    known: Negatives,
+    negatives: Negatives,
     steps: StepOracle,
     prior: FixationPrior,
     budget: int,
 ) -> Probe:
     """Decide the unknown steps out of the states on `orders` (the verified orders): for each
-    state and each part that neither starts one of them nor is in `known(state)`, check the
-    step, and if the check accepts it, search forward from the state after it for one
+    state and each part that neither starts one of them nor is in `negatives(state)`, check
+    the step, and if the check accepts it, search forward from the state after it for one
     verified completion (`VerifiedSearch.search(start=)`, at most `budget` checks): found, the
     step is valid (its order is added); proved impossible, the step leads into a dead end;
     neither, it stays unknown. The question is feasibility, not preference, so the sub-search
@@ -129,25 +137,25 @@ def probe_steps(
     uniform = np.full(n, 0.5)
     full = full_mask(n)
     truth = GroundTruth.from_orders(n, orders)
-    reach: dict[int, tuple[int, ...]] = {}  # a verified prefix to each state on the orders
+    reach: dict[int, tuple[int, ...]] = {0: ()}  # a verified prefix to each state on the orders
     for order in orders:
-        for i in range(n + 1):
-            reach.setdefault(sum(1 << p for p in order[:i]), tuple(order[:i]))
+        state = 0
+        for i, part in enumerate(order, 1):
+            state |= 1 << part
+            reach.setdefault(state, tuple(order[:i]))
     search = VerifiedSearch(k=1, direction=Direction.forward)
     probe, first = Probe(), steps.checks
     for state, valid in zip(truth.states.tolist(), truth.completable.tolist(), strict=True):
-        for part in mask_to_parts(full & ~state & ~valid & ~known(state)):
+        for part in mask_to_parts(full & ~state & ~valid & ~negatives(state)):
             bit = 1 << part
             if not steps.check(state, part).feasible:
-                probe.refuse(state, part)
+                probe.refused[state] = probe.refused.get(state, 0) | bit
                 continue
             budgeted = replace(search, max_checks=steps.checks + budget)
             result = budgeted.search(
                 lambda _: uniform, steps, prior.allows, prior_proves=True, start=state | bit
             )
-            for event in result.events:
-                if event.kind == "refused":
-                    probe.refuse(event.state, event.part)
+            add_refusals(result.events, probe.refused)
             if result.outcome == Outcome.verified:
                 probe.orders.append((*reach[state], part, *result.orders[0].sequence))
             elif result.outcome == Outcome.infeasible:
