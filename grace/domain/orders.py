@@ -145,6 +145,18 @@ class GroundTruth:
             raise KeyError(state)
         return int(self.completable[pos])
 
+    def is_order(self, sequence: Sequence[int]) -> bool:
+        """Whether `sequence` is one of the orders: each step valid in the state it leaves (a
+        valid step always enters a state of the DAG)."""
+        if not self.feasible:
+            return False
+        state = 0
+        for part in sequence:
+            if not self.label(state) >> part & 1:
+                return False
+            state |= 1 << part
+        return len(sequence) == self.n_parts
+
     def order_states(self) -> np.ndarray:
         """The decision states of the ground-truth orders (step-AUC test states, docs/metrics.md).
 

@@ -46,7 +46,7 @@ from grace.evaluation.step_states import (
     offpath_states,
     onpath_states,
 )
-from grace.planning.counting import label_table, retrieval_counts
+from grace.planning.counting import retrieval_counts
 from grace.planning.sequences import ScoredStates, Scorer, score_states, unplaced
 from grace.planning.topk import completion_bounds, table_scores, top_k
 
@@ -98,7 +98,6 @@ def evaluate_assembly(
     table, extra = _step_table(scorer, sample, scored, np.concatenate([on_states, off_states]))
     bounds = completion_bounds(scored, threshold)
     best, _ = top_k(table_scores(scored), n, k_max, threshold, bounds, tie_order=tie_order)
-    valid = label_table(truth)
     return AssemblyEval(
         size=n,
         feasible=truth.feasible,
@@ -111,7 +110,7 @@ def evaluate_assembly(
         offpath_labels=label_matrix(off_masks, n),
         offpath_unplaced=unplaced(off_states, n),
         dead_end_scores=table[dead_states][label_matrix(dead_masks, n)],
-        topk_relevant=[_is_order(r.sequence, valid) for r in best],
+        topk_relevant=[truth.is_order(r.sequence) for r in best],
         feasibility_scores=planning_scores(scored, truth, threshold),
         false_steps=first_false_steps(scored, truth, threshold),
         passes=scored.passes + extra,
@@ -130,15 +129,6 @@ def _step_table(
     table = scored.table.copy()
     table[missing] = scorer(sample.assembly, missing)
     return table, int(missing.size)
-
-
-def _is_order(sequence: Sequence[int], valid: np.ndarray) -> bool:
-    state = 0
-    for part in sequence:
-        if not valid[state] >> part & 1:
-            return False
-        state |= 1 << part
-    return True
 
 
 def _pooled_step_auc(scores: Sequence[np.ndarray], labels: Sequence[np.ndarray]) -> float:

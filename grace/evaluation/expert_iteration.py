@@ -17,12 +17,14 @@ from grace.planning.cell_steps import SimulatorSteps
 from grace.planning.fixation_prior import FixationPrior
 from grace.planning.search import VerifiedSearch
 from grace.planning.self_labels import (
+    own_sequence,
     plan_labels,
     probe_steps,
     search_negatives,
     verified_orders,
 )
 from grace.planning.sequences import Scorer
+from grace.planning.step_checks import accepted_throughout
 
 log = logging.getLogger(__name__)
 
@@ -33,15 +35,26 @@ Labeller = Callable[[Scorer, Assembly], LabelledAssembly | None]
 """`label(scorer, assembly)`: the assembly with its training targets, or None (no label)."""
 Score = Callable[[Scorer], dict]
 """`score(scorer)`: the test figures per size (`size_figures`)."""
+FIRST_CHOICE = "first_choice_verified"
+"""`info` key of a feasible label: whether the labelling policy's first choice (`own_sequence`,
+the sequence P@1 judges) passed the simulator's check at every step."""
 
 
 def search_labeller(
-    search: VerifiedSearch, simulator: Any, mask: bool = True, probe_checks: int | None = None
+    search: VerifiedSearch,
+    simulator: Any,
+    mask: bool = True,
+    probe_checks: int | None = None,
+    threshold: float = 0.5,
+    probe_own_sequence: bool = False,
 ) -> Labeller:
     """Labels from the verified search's checked plan (grace/planning/self_labels.py); with
     `mask`, only the parts whose label the search knows carry a loss; with `probe_checks`,
     the steps out of the orders' states that the search left unknown are decided by a
-    sub-search of at most that many checks each (`probe_steps`)."""
+    sub-search of at most that many checks each (`probe_steps`), and with
+    `probe_own_sequence` so are those out of the states on the policy's own first choice at λ
+    = `threshold` (`own_sequence`). A label with a verified order records whether that first
+    choice is one (`FIRST_CHOICE`)."""
 
     def label(scorer: Scorer, assembly: Assembly) -> LabelledAssembly | None:
         steps = SimulatorSteps(simulator, assembly)
@@ -49,20 +62,31 @@ def search_labeller(
         prior = FixationPrior.of_steps(steps)
         negatives = search_negatives(result, prior)
         orders = verified_orders(plan)
+        if not orders:
+            return plan_labels(plan, assembly, negatives if mask else None)
+        first = own_sequence(scorer, assembly, threshold)
         probed = None
-        if probe_checks is not None and orders:
-            probed = probe_steps(orders, negatives, steps, prior, probe_checks)
-        return plan_labels(plan, assembly, negatives if mask else None, probed)
+        if probe_checks is not None:
+            paths = [first] if probe_own_sequence else []
+            probed = probe_steps(orders, negatives, steps, prior, probe_checks, paths)
+        sample = plan_labels(plan, assembly, negatives if mask else None, probed)
+        sample.info[FIRST_CHOICE] = accepted_throughout(first, steps)
+        return sample
 
     return label
 
 
-def brute_force_labeller(simulator: Any) -> Labeller:
-    """The simulator's ground truth of the same assembly: the upper bound."""
+def brute_force_labeller(simulator: Any, threshold: float = 0.5) -> Labeller:
+    """The simulator's ground truth of the same assembly: the upper bound. A feasible one
+    records whether the policy's first choice at λ = `threshold` is one of its orders
+    (`FIRST_CHOICE`)."""
 
     def label(scorer: Scorer, assembly: Assembly) -> LabelledAssembly:
         sample = simulator.label(assembly)
         sample.info["labels"] = Labels.brute_force.value
+        if sample.truth.feasible:
+            first = own_sequence(scorer, assembly, threshold)
+            sample.info[FIRST_CHOICE] = sample.truth.is_order(first)
         return sample
 
     return label
@@ -92,6 +116,14 @@ def label_round(
     return out
 
 
+def first_choice_share(samples: Sequence[LabelledAssembly]) -> float | None:
+    """Of the feasible `samples` (as their labels know), the share whose labelling policy's
+    first choice the simulator accepted at every step (`FIRST_CHOICE`): strict P@1 of that
+    policy on them, read from the simulator instead of a ground truth."""
+    right = [s.info[FIRST_CHOICE] for s in samples if FIRST_CHOICE in s.info]
+    return sum(right) / len(right) if right else None
+
+
 def expert_iteration(
     rounds: int,
     train: list[LabelledAssembly],
@@ -103,7 +135,9 @@ def expert_iteration(
 ) -> list[RoundFigures]:
     """Rounds 0..`rounds` (module docstring): `draw(r)` gives round r's new assemblies, each
     round's model trains on `train` plus every assembly labelled so far; `report` gets the
-    figures after every round."""
+    figures after every round. Each round's model is judged on the next round's draws
+    (`RoundFigures.first_choice`); with `rounds` ≥ 1 the last one on one more draw (round
+    `rounds` + 1), labelled for that only."""
     added: list[LabelledAssembly] = []
     scorer: Scorer | None = None
     done: list[RoundFigures] = []
@@ -114,7 +148,9 @@ def expert_iteration(
             drawn = draw(r)
             figures.seconds["draw"] = time.perf_counter() - tick
             tick = time.perf_counter()
-            added += label_round(scorer, drawn, label, figures)
+            labelled = label_round(scorer, drawn, label, figures)
+            done[-1].first_choice = first_choice_share(labelled)
+            added += labelled
             figures.seconds["label"] = time.perf_counter() - tick
             tick = time.perf_counter()
         figures.added = len(added)
@@ -129,4 +165,10 @@ def expert_iteration(
             "round %d: %d added, %d of %d drawn verified, %.0f s", r, figures.added,
             figures.verified, figures.drawn, sum(figures.seconds.values()),
         )  # fmt: skip
+    if rounds and scorer is not None:
+        tick = time.perf_counter()
+        judged = label_round(scorer, draw(rounds + 1), label, RoundFigures(round=rounds + 1))
+        done[-1].first_choice = first_choice_share(judged)
+        done[-1].seconds["judge"] = time.perf_counter() - tick
+        report(done)
     return done

@@ -31,6 +31,10 @@ class Labels(StrEnum):
 REPLICATE_SETTINGS = ("seed",)
 """Settings in which runs pooled into one row may differ: they repeat, not vary, a run."""
 
+LATER_SETTINGS = {"probe_own_sequence": False}
+"""Settings added after runs were made, with the value those runs had; any other setting a run
+does not name had the null it defaults to (`task.probe_checks`)."""
+
 
 @dataclass
 class RoundFigures:
@@ -50,6 +54,9 @@ class RoundFigures:
     added: int = 0
     # mean over this round's feasible masked labels of the share of unplaced parts' labels known
     known_share: float | None = None
+    # this round's model: share of the next round's feasible drawn assemblies (the last round:
+    # of one more draw) whose first choice the simulator accepts throughout (no ground truth)
+    first_choice: float | None = None
     seconds: dict[str, float] = field(default_factory=dict)
     test: dict[str, dict[str, float | int | None]] = field(default_factory=dict)
 
@@ -85,11 +92,12 @@ def _cell(value: float | None) -> str:
 
 def self_train_markdown(settings: Mapping[str, Any], rounds: Sequence[RoundFigures]) -> str:
     """The rounds as one table: added assemblies, verified share, the share of known labels
-    (masked verified labels), wall time, then strict P@1 and the no-sequence share per test
+    (masked verified labels), wall time, the round's model's first choice verified on fresh
+    draws (`RoundFigures.first_choice`), then strict P@1 and the no-sequence share per test
     size."""
     sizes = sorted({int(s) for r in rounds for s in r.test})
     head = ["round", "drawn", "verified share", "infeasible", "not found", "added", "known share"]
-    head += ["wall s"]
+    head += ["wall s", "first choice (drawn)"]
     head += [f"strict P@1 A{s}" for s in sizes] + [f"no sequence A{s}" for s in sizes]
     lines = [
         f"# Self-training ({settings.get('labels')} labels)",
@@ -102,7 +110,7 @@ def self_train_markdown(settings: Mapping[str, Any], rounds: Sequence[RoundFigur
     for r in rounds:
         row = [str(r.round), str(r.drawn), _cell(r.verified_share), str(r.infeasible)]
         row += [str(r.not_found), str(r.added), _cell(r.known_share)]
-        row += [f"{sum(r.seconds.values()):.0f}"]
+        row += [f"{sum(r.seconds.values()):.0f}", _cell(r.first_choice)]
         row += [_cell(r.test.get(str(s), {}).get("p_at_1_strict")) for s in sizes]
         row += [_cell(r.test.get(str(s), {}).get("no_sequence_share")) for s in sizes]
         lines.append("| " + " | ".join(row) + " |")
@@ -114,24 +122,27 @@ def _label_source(settings: Mapping[str, Any]) -> str:
         return str(settings["labels"])
     source = "verified, masked" if settings.get("mask_unknown", False) else "verified, unmasked"
     probe = settings.get("probe_checks")
-    return source if probe is None else f"{source}, probed ({probe} checks)"
+    if probe is None:
+        return source
+    own = " and on its own sequence" if settings.get("probe_own_sequence", False) else ""
+    return f"{source}, probed ({probe} checks){own}"
 
 
 def pooled_markdown(runs: Sequence[Mapping[str, Any]]) -> str:
     """Self-training runs (their self_train.json) pooled over training seeds: per label source
-    and round, mean ± std over the runs of strict P@1 and of the no-sequence share per test
-    size. Runs pooled into one source must agree on every setting but the seed."""
+    and round, mean ± std over the runs of the round's model's first choice verified on fresh
+    draws (when every run has it), of strict P@1 and of the no-sequence share per test size.
+    Runs pooled into one source must agree on every setting but the seed."""
     groups: dict[str, list[Mapping[str, Any]]] = {}
     for body in runs:
         groups.setdefault(_label_source(body["settings"]), []).append(body)
     sizes = sorted({int(s) for b in runs for r in b["rounds"] for s in r["test"]})
-    head = ["labels", "round", "seeds", "added"]
+    head = ["labels", "round", "seeds", "added", "first choice (drawn)"]
     head += [f"strict P@1 A{s}" for s in sizes] + [f"no sequence A{s}" for s in sizes]
     rows = []
     for source, bodies in sorted(groups.items()):
-        # a setting a run does not name (one added after it ran) is the null it defaults to
         names = {k for b in bodies for k in b["settings"]} - set(REPLICATE_SETTINGS)
-        fixed = [{k: b["settings"].get(k) for k in names} for b in bodies]
+        fixed = [{k: b["settings"].get(k, LATER_SETTINGS.get(k)) for k in names} for b in bodies]
         if any(f != fixed[0] for f in fixed):
             raise UserError(
                 f"{SELF_TRAIN_FILE}: runs of '{source}' labels differ in more than "
@@ -141,7 +152,9 @@ def pooled_markdown(runs: Sequence[Mapping[str, Any]]) -> str:
             done = [b["rounds"][r] for b in bodies]
             added = sorted({d["added"] for d in done})
             shown = str(added[0]) if len(added) == 1 else f"{added[0]}–{added[-1]}"
-            row = [source, str(r), str(len(done)), shown]
+            judged = [d.get("first_choice") for d in done]  # runs from before it lack it
+            first = cell(mean_std(judged)) if None not in judged else "–"
+            row = [source, str(r), str(len(done)), shown, first]
             for key in ("p_at_1_strict", "no_sequence_share"):
                 row += [cell(mean_std([d["test"][str(s)][key] for d in done])) for s in sizes]
             rows.append(row)

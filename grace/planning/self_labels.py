@@ -30,12 +30,16 @@ The probe (`probe_steps`, `task.probe_checks`) decides those unknown parts of th
 states with the simulator: a step it finds a verified completion for is valid (its order joins
 the label), one whose check refuses it or whose every continuation it refutes is not; the
 latter enter the label as the brute force has them, a placeable step into a dead state whose
-every label is 0.
+every label is 0. With `paths` (`task.probe_own_sequence`) it also decides the states on the
+policy's own first choice (`own_sequence`, the sequence P@1 judges) as far as that stays
+completable, and the step where it leaves: the verified orders hold the states the expert
+visits, the policy's mistakes happen in the states it visits itself (DAgger: Ross et al.,
+AISTATS 2011).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -52,7 +56,9 @@ from grace.planning.search import (
     SearchResult,
     VerifiedSearch,
 )
+from grace.planning.sequences import Scorer, score_states
 from grace.planning.step_checks import StepOracle
+from grace.planning.topk import completion_bounds, lazy_scores, table_scores, top_k
 
 Negatives = Callable[[int], int]
 """`negatives(state)`: the parts known not to be a valid next step in `state` (a bitmask)."""
@@ -117,12 +123,32 @@ class Probe:
         return lambda s: also(s) | self.refused.get(s, 0) | into_dead.get(s, 0)
 
 
+def own_sequence(scorer: Scorer, assembly: Assembly, threshold: float) -> tuple[int, ...]:
+    """The policy's first choice: its most probable sequence whose every step scores ≥ λ
+    (Algorithm 1's top one, the sequence strict P@1 judges), or, when none passes λ, its
+    greedy path (the highest-scoring unplaced part in each state), which runs through the state
+    where its scores fell below λ."""
+    n = assembly.n_parts
+    scored = score_states(scorer, assembly, threshold)
+    bounds = completion_bounds(scored, threshold)
+    best, _ = top_k(table_scores(scored), n, 1, threshold, bounds)
+    if best:
+        return best[0].sequence
+    scores, state, path = lazy_scores(scorer, assembly), 0, []
+    for _ in range(n):
+        row = np.where([not state >> p & 1 for p in range(n)], scores(state), -np.inf)
+        path.append(int(np.argmax(row)))
+        state |= 1 << path[-1]
+    return tuple(path)
+
+
 def probe_steps(
     orders: list[tuple[int, ...]],
     negatives: Negatives,
     steps: StepOracle,
     prior: FixationPrior,
     budget: int,
+    paths: Sequence[tuple[int, ...]] = (),
 ) -> Probe:
     """Decide the unknown steps out of the states on `orders` (the verified orders): for each
     state and each part that neither starts one of them nor is in `negatives(state)`, check
@@ -132,12 +158,17 @@ def probe_steps(
     neither, it stays unknown. The question is feasibility, not preference, so the sub-search
     needs no policy: it tries parts in index order and backjumps on what it learns. Cost: at
     most 1 + `budget` checks per unknown step of the states on the orders, where the brute
-    force decides every reachable state."""
+    force decides every reachable state.
+
+    Then each of `paths` (complete sequences, e.g. `own_sequence`) is walked from the empty
+    state: every state on it is decided the same way, up to the first step not proved valid
+    (refused, into a dead end, or left open), whose state is the last one decided."""
     n = steps.n_parts
     uniform = np.full(n, 0.5)
     full = full_mask(n)
     truth = GroundTruth.from_orders(n, orders)
-    reach: dict[int, tuple[int, ...]] = {0: ()}  # a verified prefix to each state on the orders
+    valid = dict(zip(truth.states.tolist(), truth.completable.tolist(), strict=True))
+    reach: dict[int, tuple[int, ...]] = {0: ()}  # a verified prefix to each decided state
     for order in orders:
         state = 0
         for i, part in enumerate(order, 1):
@@ -145,11 +176,16 @@ def probe_steps(
             reach.setdefault(state, tuple(order[:i]))
     search = VerifiedSearch(k=1, direction=Direction.forward)
     probe, first = Probe(), steps.checks
-    for state, valid in zip(truth.states.tolist(), truth.completable.tolist(), strict=True):
-        for part in mask_to_parts(full & ~state & ~valid & ~negatives(state)):
+
+    def decide(state: int) -> None:
+        for part in mask_to_parts(full & ~state & ~valid.get(state, 0) & ~negatives(state)):
             bit = 1 << part
             if not steps.check(state, part).feasible:
                 probe.refused[state] = probe.refused.get(state, 0) | bit
+                continue
+            if state | bit == full:  # the last step: accepted, it completes an order
+                probe.orders.append((*reach[state], part))
+                valid[state] = valid.get(state, 0) | bit
                 continue
             budgeted = replace(search, max_checks=steps.checks + budget)
             result = budgeted.search(
@@ -158,10 +194,25 @@ def probe_steps(
             add_refusals(result.events, probe.refused)
             if result.outcome == Outcome.verified:
                 probe.orders.append((*reach[state], part, *result.orders[0].sequence))
+                valid[state] = valid.get(state, 0) | bit
             elif result.outcome == Outcome.infeasible:
                 probe.dead_ends.append((*reach[state], part))
             else:
                 probe.open_steps += 1
+
+    decided = set(truth.states.tolist())
+    for state in truth.states.tolist():
+        decide(state)
+    for path in paths if orders else ():
+        state = 0
+        for part in path:
+            if state not in decided:
+                decided.add(state)
+                decide(state)
+            if not valid.get(state, 0) >> part & 1:
+                break
+            reach.setdefault(state | 1 << part, (*reach[state], part))
+            state |= 1 << part
     probe.checks = steps.checks - first
     return probe
 

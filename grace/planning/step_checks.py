@@ -23,6 +23,7 @@ simulator.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -80,6 +81,17 @@ class CachedSteps(ABC):
     @abstractmethod
     def decide(self, state: int, part: int) -> StepCheck:
         """The verdict, computed (called once per distinct pair)."""
+
+
+def accepted_throughout(sequence: Sequence[int], steps: StepOracle) -> bool:
+    """Whether the simulator accepts every step of `sequence` from the empty state: a complete
+    sequence is then a verified order (its first refusal ends the checks)."""
+    state = 0
+    for part in sequence:
+        if not steps.check(state, part).feasible:
+            return False
+        state |= 1 << part
+    return True
 
 
 def blocking_set(conflicts: tuple[int, ...], order: list[int]) -> int:

@@ -66,6 +66,8 @@ class SelfTrainSettings(TaskSettings):
     mask_unknown: bool = field(default=True, metadata=WEIGHTS)
     # verified labels: checks per sub-search deciding a step the search left unknown; None: none
     probe_checks: int | None = field(default=None, metadata=WEIGHTS)
+    # probed labels: also decide the states on the policy's own first choice (at `threshold`)
+    probe_own_sequence: bool = field(default=False, metadata=WEIGHTS)
     # the protocol's fold: its training, validation and test assemblies
     fold: int = field(default=0, metadata=WEIGHTS)
     # λ of P@1 and of "no complete sequence" (docs/metrics.md)
@@ -90,7 +92,7 @@ def run(cfg: DictConfig) -> float:
         return [d.assembly for d in draws.batch(r, sizes, test)]
 
     if task.labels == Labels.brute_force:
-        label = brute_force_labeller(simulator)
+        label = brute_force_labeller(simulator, float(task.threshold))
     else:
         search = instantiate(cfg.planner)
         if not isinstance(search, VerifiedSearch):
@@ -99,7 +101,10 @@ def run(cfg: DictConfig) -> float:
                 "fix: task=self_train labels by planner=verified (drop planner=topk)"
             )
         probe = None if task.probe_checks is None else int(task.probe_checks)
-        label = search_labeller(search, simulator, bool(task.mask_unknown), probe)
+        label = search_labeller(
+            search, simulator, bool(task.mask_unknown), probe, float(task.threshold),
+            bool(task.probe_own_sequence),
+        )  # fmt: skip
     fit_module = instantiate(task.fit)
 
     def fit(samples: list[LabelledAssembly], r: int) -> Scorer:
@@ -111,7 +116,7 @@ def run(cfg: DictConfig) -> float:
 
     settings = {
         "labels": str(task.labels), "mask_unknown": bool(task.mask_unknown),
-        "probe_checks": task.probe_checks,
+        "probe_checks": task.probe_checks, "probe_own_sequence": bool(task.probe_own_sequence),
         "rounds": int(task.rounds), "sizes": sizes,
         "draw_seed": int(task.draw_seed), "fold": int(task.fold), "seed": int(cfg.seed),
         "train": len(train), "val": len(val), "test": len(test),

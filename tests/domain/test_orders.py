@@ -1,3 +1,4 @@
+import itertools
 import math
 
 from grace.domain.orders import GroundTruth
@@ -27,6 +28,8 @@ def test_precedence_and_dead_end():
     assert gt.label(0) == 0b101
     assert gt.label(0b001) == 0b100  # placing 1 now leads to the dead end
     assert list(gt.dead_ends()) == [(0, 1)]
+    assert [o for o in itertools.permutations(range(3)) if gt.is_order(o)] == [(0, 2, 1), (2, 0, 1)]
+    assert not gt.is_order((0, 2)) and not GroundTruth.from_orders(3, []).is_order((0, 2, 1))
     # the dead-end state 0b011 and the complete state are no decision states of the orders
     assert gt.order_states().tolist() == [0b000, 0b001, 0b100, 0b101]
 

@@ -12,7 +12,13 @@ from planning_fakes import MaskSteps, fixed_scores, line_assembly, random_world
 
 from grace.planning.fixation_prior import FixationPrior
 from grace.planning.search import Direction, Frontier, Outcome, VerifiedSearch
-from grace.planning.step_checks import StepCheck, blocking_set, brute_force, minimal_masks
+from grace.planning.step_checks import (
+    StepCheck,
+    accepted_throughout,
+    blocking_set,
+    brute_force,
+    minimal_masks,
+)
 
 LINE = [0b0010, 0b0101, 0b1010, 0b0100]
 """Four parts in a row: a later part must touch a placed one (fixation)."""
@@ -43,15 +49,6 @@ def orders_of(world: MaskSteps) -> set[tuple[int, ...]]:
     return set(brute_force(world).orders())
 
 
-def steps_pass(world: MaskSteps, order) -> bool:
-    state = 0
-    for part in order:
-        if not world.check(state, part).feasible:
-            return False
-        state |= 1 << part
-    return True
-
-
 @pytest.mark.parametrize("direction", list(Direction))
 @pytest.mark.parametrize("frontier", list(Frontier))
 @pytest.mark.parametrize("learn", [True, False])
@@ -65,7 +62,7 @@ def test_a_policy_wrong_at_its_first_decision_still_gets_a_verified_order(
     result = search.search(fixed_scores(WRONG[direction], 4), world)
     assert result.outcome == Outcome.verified
     assert result.orders[0].sequence in known
-    assert steps_pass(MaskSteps(LATE_BLOCK, LINE), result.orders[0].sequence)
+    assert accepted_throughout(result.orders[0].sequence, MaskSteps(LATE_BLOCK, LINE))
     assert result.first_checks == result.checks == world.checks
     assert any(e.kind == "refused" and e.part == 3 for e in result.events)
     direct = search.search(fixed_scores(RIGHT[direction], 4), MaskSteps(LATE_BLOCK, LINE))
@@ -170,7 +167,7 @@ def test_exhaustive_mode_verifies_exactly_the_brute_force_orders(seed):
             prior_proves=proves,
         )
         assert first.outcome == result.outcome
-        assert all(steps_pass(MaskSteps(masks, touch), r.sequence) for r in first.orders)
+        assert all(accepted_throughout(r.sequence, MaskSteps(masks, touch)) for r in first.orders)
 
 
 @pytest.mark.parametrize("direction", list(Direction))

@@ -9,12 +9,13 @@ import numpy as np
 import pytest
 from grace_tests_conftest import accepted, fake_plan
 from hydra.utils import instantiate
-from planning_fakes import MaskSteps, fixed_scores, line_assembly, random_world
+from planning_fakes import MaskSteps, TableScorer, fixed_scores, line_assembly, random_world
 
 from grace.domain.assembly import full_mask
 from grace.planning.fixation_prior import FixationPrior
 from grace.planning.search import Direction, VerifiedSearch
 from grace.planning.self_labels import (
+    own_sequence,
     plan_labels,
     probe_steps,
     search_negatives,
@@ -165,3 +166,44 @@ def test_the_probe_decides_the_steps_the_search_left_unknown_as_the_brute_force_
         assert sample.info["probe_checks"] == probed.checks
     assert decided > 0 and dead_states > 0
     assert (left_open > 0) == (budget < 100)
+
+
+def test_the_probe_decides_the_states_on_a_path_up_to_its_first_step_not_valid():
+    """With `paths`, every state a path runs through while each step is valid is decided
+    whole, as the brute force has it, and so is the state where it takes its first step that
+    is not valid (that step is labelled 0 and known); the paths add states the orders did not
+    hold."""
+    added = broken = 0
+    for seed, (truth, _, plan, negatives, world, prior) in enumerate(searched_worlds(k=1)):
+        orders = verified_orders(plan)
+        rng = np.random.default_rng(seed)
+        valid = max(truth.orders())  # the brute force's last order, rarely the search's
+        paths = [valid, tuple(rng.permutation(7).tolist()), (*valid[:3], *valid[:2:-1])]
+        probed = probe_steps(orders, negatives, world, prior, 10**6, paths)
+        sample = plan_labels(plan, line_assembly(7), negatives, probed)
+        alone = probe_steps(orders, negatives, world, prior, 10**6)
+        before = plan_labels(plan, line_assembly(7), negatives, alone).known
+        for path in paths:
+            state = 0
+            for part in path:
+                assert sample.known[state] == full_mask(7)
+                assert sample.truth.label(state) == truth.label(state)
+                added += before.get(state) != full_mask(7)
+                if not truth.label(state) >> part & 1:
+                    broken += 1
+                    break
+                state |= 1 << part
+    assert added > 0 and broken > 0
+
+
+def test_own_sequence_is_the_top_sequence_past_lambda_else_the_greedy_path():
+    scorer = TableScorer(5, seed=4)
+    scorer.table[:] = 0.6
+    for state in range(32):  # part 4 first, then ascending: the one sequence past λ = 0.5
+        scorer.table[state, 4] = 0.9
+    scorer.table[0, :4] = 0.1
+    assert own_sequence(scorer, line_assembly(5), 0.5) == (4, 0, 1, 2, 3)
+    scorer.table[0b10000, 1] = 0.7
+    assert own_sequence(scorer, line_assembly(5), 0.5) == (4, 1, 0, 2, 3)
+    scorer.table[0b10000] = [0.3, 0.4, 0.2, 0.1, 0.0]  # nothing passes λ after part 4
+    assert own_sequence(scorer, line_assembly(5), 0.5) == (4, 1, 0, 2, 3)

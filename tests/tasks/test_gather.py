@@ -60,12 +60,16 @@ def test_missing_root_is_a_clear_error(tmp_path):
         _gather(tmp_path / "empty", tmp_path)
 
 
-def _self_train_run(folder, seed, labels, p_at_1, draw_seed=2, probe=None):
+def _self_train_run(folder, seed, labels, p_at_1, draw_seed=2, probe=None, own=False):
     settings = {"labels": labels, "mask_unknown": True, "draw_seed": draw_seed, "seed": seed}
     if probe is not None or seed:  # seed 0 runs stand for runs from before the setting existed
         settings["probe_checks"] = probe
+    if own or seed:
+        settings["probe_own_sequence"] = own
     test = {"8": {"p_at_1_strict": p_at_1, "no_sequence_share": 0.1}}
     rounds = [{"round": r, "added": 60 * r, "test": test} for r in range(2)]
+    if own:  # runs from before the first choice was judged lack it
+        rounds = [{**r, "first_choice": 0.3 + 0.1 * r["round"]} for r in rounds]
     folder.mkdir(parents=True)
     (folder / "self_train.json").write_text(json.dumps({"settings": settings, "rounds": rounds}))
 
@@ -75,6 +79,8 @@ def test_gather_pools_self_training_runs_over_seeds_per_label_source(tmp_path):
     _self_train_run(tmp_path / "runs" / "b", 1, "verified", 0.6)
     _self_train_run(tmp_path / "runs" / "c", 0, "brute_force", 0.7)
     _self_train_run(tmp_path / "runs" / "e", 0, "verified", 0.8, probe=30)
+    _self_train_run(tmp_path / "runs" / "f", 1, "verified", 0.6, probe=30)
+    _self_train_run(tmp_path / "runs" / "g", 1, "verified", 0.9, probe=30, own=True)
     out = tmp_path / "out"
     run(
         OmegaConf.create(
@@ -82,9 +88,11 @@ def test_gather_pools_self_training_runs_over_seeds_per_label_source(tmp_path):
         )
     )
     md = (out / "self_train_gather.md").read_text()
-    assert "| verified, masked | 1 | 2 | 60 | 0.50 ± 0.10 | 0.10 ± 0.00 |" in md
-    assert "| brute_force | 0 | 1 | 0 | 0.70 ± 0.00 | 0.10 ± 0.00 |" in md
-    assert "| verified, masked, probed (30 checks) | 1 | 1 | 60 | 0.80 ± 0.00 |" in md
+    assert "| verified, masked | 1 | 2 | 60 | – | 0.50 ± 0.10 | 0.10 ± 0.00 |" in md
+    assert "| brute_force | 0 | 1 | 0 | – | 0.70 ± 0.00 | 0.10 ± 0.00 |" in md
+    assert "| verified, masked, probed (30 checks) | 1 | 2 | 60 | – | 0.70 ± 0.10 |" in md
+    own = "probed (30 checks) and on its own sequence | 1 | 1 | 60 | 0.40 ± 0.00 | 0.90 ± 0.00 |"
+    assert own in md
     _self_train_run(tmp_path / "runs" / "d", 2, "verified", 0.6, draw_seed=5)
     with pytest.raises(UserError, match=r"self_train\.json: runs of 'verified, masked'"):
         _gather(tmp_path / "runs", out)

@@ -13,7 +13,7 @@ from hydra.utils import instantiate
 from grace.data.unlabelled import UnlabelledDraws, layout_key
 from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
-from grace.evaluation.expert_iteration import expert_iteration
+from grace.evaluation.expert_iteration import brute_force_labeller, expert_iteration
 from grace.evaluation.self_train import RoundFigures, self_train_markdown
 from grace.planning.self_labels import plan_labels
 from grace.tasks.self_train import run
@@ -79,7 +79,24 @@ def test_a_round_adds_only_orders_the_simulator_accepts_at_every_step(fake_simul
     assert [r.drawn for r in done] == [0, sum(SIZES.values()), sum(SIZES.values())]
     names = [s.assembly.name for s in added]
     assert len(set(names)) == len(names)  # no assembly drawn in two rounds
-    assert len(reports) == 3 and "verified share" in self_train_markdown({}, done)
+    assert len(reports) == 4 and "verified share" in self_train_markdown({}, done)
+
+
+def test_each_round_is_judged_by_its_first_choice_on_the_next_draws(fake_simulator, samples):
+    """`RoundFigures.first_choice` of round r is the share of round r + 1's feasible draws
+    (one more draw for the last round) whose first choice of round r's model is an order; the
+    fit's policy scores every part alike, so its first choice is the identity order."""
+    simulator = instantiate(fake_simulator)
+    done, _, _ = run_rounds(simulator, samples, [], brute_force_labeller(simulator))
+    draws = UnlabelledDraws(simulator, seed=7)
+    shares = []
+    for r, figures in enumerate(done):
+        truths = [simulator.label(d.assembly).truth for d in draws.batch(r + 1, SIZES, [])]
+        right = [tuple(range(t.n_parts)) in set(t.orders()) for t in truths if t.feasible]
+        shares.append(sum(right) / len(right))
+        assert figures.first_choice == pytest.approx(shares[-1])
+    assert max(shares) > 0 and min(shares) < 1
+    assert "judge" in done[-1].seconds and "judge" not in done[0].seconds
 
 
 def test_the_test_assemblies_truth_is_read_only_to_score(fake_simulator, samples):
@@ -134,10 +151,11 @@ def test_the_task_writes_its_rounds(cfg_factory):
         "task=self_train", "scale=smoke", "protocol=upward", "protocol.folds=2",
         "protocol.train_sizes=[3,4,5]", "protocol.test_sizes=[6,7]", "trainer.max_epochs=1",
         "task.sizes={6: 2, 7: 2}", "task.rounds=1", "threads=1", "task.probe_checks=20",
+        "task.probe_own_sequence=true",
     )  # fmt: skip
     run(cfg)
     out = json.loads((Path(cfg.paths.output_dir) / "self_train.json").read_text())
-    assert out["settings"]["probe_checks"] == 20
+    assert out["settings"]["probe_checks"] == 20 and out["settings"]["probe_own_sequence"]
     first, second = out["rounds"]
     assert (first["drawn"], second["drawn"]) == (0, 4)
     assert second["added"] == second["labelled"] == second["verified"] + second["infeasible"]
