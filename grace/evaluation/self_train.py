@@ -114,6 +114,9 @@ def self_train_markdown(settings: Mapping[str, Any], rounds: Sequence[RoundFigur
         row += [_cell(r.test.get(str(s), {}).get("p_at_1_strict")) for s in sizes]
         row += [_cell(r.test.get(str(s), {}).get("no_sequence_share")) for s in sizes]
         lines.append("| " + " | ".join(row) + " |")
+    chosen = chosen_round([r.to_json() for r in rounds])
+    if chosen is not None:
+        lines += ["", f"Chosen round (its first choice on fresh draws right most often): {chosen}"]
     return "\n".join(lines) + "\n"
 
 
@@ -128,10 +131,33 @@ def _label_source(settings: Mapping[str, Any]) -> str:
     return f"{source}, probed ({probe} checks){own}"
 
 
+def chosen_round(rounds: Sequence[Mapping[str, Any]]) -> int | None:
+    """The round (index into `rounds`, `RoundFigures.to_json` each) whose model's first choice
+    on fresh draws is right most often, the earlier one on a tie (it trained on fewer labels);
+    None unless every round was judged. It reads no test ground truth: R chosen per run without
+    one."""
+    judged = [r.get("first_choice") for r in rounds]
+    if not judged or None in judged:
+        return None
+    return int(np.argmax(judged))
+
+
+def _row(source: str, label: str, done: Sequence[Mapping[str, Any]], sizes: list[int]) -> list:
+    added = sorted({d["added"] for d in done})
+    shown = str(added[0]) if len(added) == 1 else f"{added[0]}–{added[-1]}"
+    judged = [d.get("first_choice") for d in done]  # runs from before it lack it
+    first = cell(mean_std(judged)) if None not in judged else "–"
+    row = [source, label, str(len(done)), shown, first]
+    for key in ("p_at_1_strict", "no_sequence_share"):
+        row += [cell(mean_std([d["test"][str(s)][key] for d in done])) for s in sizes]
+    return row
+
+
 def pooled_markdown(runs: Sequence[Mapping[str, Any]]) -> str:
     """Self-training runs (their self_train.json) pooled over training seeds: per label source
     and round, mean ± std over the runs of the round's model's first choice verified on fresh
-    draws (when every run has it), of strict P@1 and of the no-sequence share per test size.
+    draws (when every run has it), of strict P@1 and of the no-sequence share per test size;
+    when every run's rounds were judged, a row "chosen" pools each run's `chosen_round`.
     Runs pooled into one source must agree on every setting but the seed."""
     groups: dict[str, list[Mapping[str, Any]]] = {}
     for body in runs:
@@ -148,14 +174,11 @@ def pooled_markdown(runs: Sequence[Mapping[str, Any]]) -> str:
                 f"{SELF_TRAIN_FILE}: runs of '{source}' labels differ in more than "
                 f"{', '.join(REPLICATE_SETTINGS)}; fix: gather them from separate task.roots"
             )
-        for r in range(min(len(b["rounds"]) for b in bodies)):
-            done = [b["rounds"][r] for b in bodies]
-            added = sorted({d["added"] for d in done})
-            shown = str(added[0]) if len(added) == 1 else f"{added[0]}–{added[-1]}"
-            judged = [d.get("first_choice") for d in done]  # runs from before it lack it
-            first = cell(mean_std(judged)) if None not in judged else "–"
-            row = [source, str(r), str(len(done)), shown, first]
-            for key in ("p_at_1_strict", "no_sequence_share"):
-                row += [cell(mean_std([d["test"][str(s)][key] for d in done])) for s in sizes]
-            rows.append(row)
+        last = min(len(b["rounds"]) for b in bodies)
+        for r in range(last):
+            rows.append(_row(source, str(r), [b["rounds"][r] for b in bodies], sizes))
+        chosen = [chosen_round(b["rounds"][:last]) for b in bodies]
+        if None not in chosen:
+            picked = [b["rounds"][c] for b, c in zip(bodies, chosen, strict=True)]
+            rows.append(_row(source, f"chosen ({', '.join(map(str, chosen))})", picked, sizes))
     return markdown_table(head, rows) + "\n"

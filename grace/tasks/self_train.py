@@ -12,9 +12,11 @@ of every task) trains on the protocol fold's training assemblies plus every self
 far, and is scored on the fold's test assemblies (`evaluate_by_size`, docs/metrics.md). Round 0
 is the model trained on the original set only (R = 0). `task.labels=brute_force` labels the
 same drawn assemblies by the simulator's brute force instead: the upper bound of the same data.
-The test assemblies' ground truth is read only to score. After every round self_train.json and
-self_train.md are rewritten (atomically) in the run folder; returns the last round's mean strict
-P@1 over the test sizes.
+The test assemblies' ground truth is read only to score. Each round's model is also judged on the
+next round's draws by its first choice, checked by the simulator (the last one on one more draw),
+and the round judged best is named (`chosen_round`): R chosen without any ground truth. After
+every round self_train.json and self_train.md are rewritten (atomically) in the run folder;
+returns the last round's mean strict P@1 over the test sizes.
 """
 
 from __future__ import annotations
@@ -40,7 +42,13 @@ from grace.evaluation.expert_iteration import (
     expert_iteration,
     search_labeller,
 )
-from grace.evaluation.self_train import Labels, RoundFigures, self_train_markdown, size_figures
+from grace.evaluation.self_train import (
+    Labels,
+    RoundFigures,
+    chosen_round,
+    self_train_markdown,
+    size_figures,
+)
 from grace.model.scoring import make_scorer
 from grace.planning.search import VerifiedSearch
 from grace.planning.sequences import Scorer
@@ -124,7 +132,8 @@ def run(cfg: DictConfig) -> float:
     }  # fmt: skip
 
     def report(rounds: list[RoundFigures]) -> None:
-        body = {"settings": settings, "rounds": [r.to_json() for r in rounds]}
+        done = [r.to_json() for r in rounds]
+        body = {"settings": settings, "rounds": done, "chosen_round": chosen_round(done)}
         write_json_atomic(out_dir / "self_train.json", body)
         shown = {k: v for k, v in settings.items() if k != "planner"}
         write_text_atomic(out_dir / "self_train.md", self_train_markdown(shown, rounds))

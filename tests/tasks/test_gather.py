@@ -92,6 +92,8 @@ def test_gather_pools_self_training_runs_over_seeds_per_label_source(tmp_path):
     assert "| brute_force | 0 | 1 | 0 | – | 0.70 ± 0.00 | 0.10 ± 0.00 |" in md
     assert "| verified, masked, probed (30 checks) | 1 | 2 | 60 | – | 0.70 ± 0.10 |" in md
     own = "probed (30 checks) and on its own sequence | 1 | 1 | 60 | 0.40 ± 0.00 | 0.90 ± 0.00 |"
+    assert "on its own sequence | chosen (1) | 1 | 60 | 0.40 ± 0.00 |" in md
+    assert md.count("chosen") == 1  # the other runs' rounds were not judged
     assert own in md
     _self_train_run(tmp_path / "runs" / "d", 2, "verified", 0.6, draw_seed=5)
     with pytest.raises(UserError, match=r"self_train\.json: runs of 'verified, masked'"):

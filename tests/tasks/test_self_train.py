@@ -14,7 +14,7 @@ from grace.data.unlabelled import UnlabelledDraws, layout_key
 from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
 from grace.evaluation.expert_iteration import brute_force_labeller, expert_iteration
-from grace.evaluation.self_train import RoundFigures, self_train_markdown
+from grace.evaluation.self_train import RoundFigures, chosen_round, self_train_markdown
 from grace.planning.self_labels import plan_labels
 from grace.tasks.self_train import run
 
@@ -97,6 +97,8 @@ def test_each_round_is_judged_by_its_first_choice_on_the_next_draws(fake_simulat
         assert figures.first_choice == pytest.approx(shares[-1])
     assert max(shares) > 0 and min(shares) < 1
     assert "judge" in done[-1].seconds and "judge" not in done[0].seconds
+    chosen = f"Chosen round (its first choice on fresh draws right most often): {np.argmax(shares)}"
+    assert chosen in self_train_markdown({}, done)
 
 
 def test_the_test_assemblies_truth_is_read_only_to_score(fake_simulator, samples):
@@ -136,6 +138,12 @@ def test_no_drawn_assembly_copies_a_test_assembly(fake_simulator):
         assert len(batch) == 4
         assert not taken & {layout_key(d.assembly) for d in batch}
         assert min(d.index for d in batch) >= 12  # the first 12 draws are the test's
+
+
+def test_the_chosen_round_is_the_best_judged_and_the_earlier_on_a_tie():
+    judged = [{"first_choice": f} for f in (0.4, 0.6, 0.6, 0.5)]
+    assert chosen_round(judged) == 1
+    assert chosen_round([*judged, {"first_choice": None}]) is None and chosen_round([]) is None
 
 
 def test_the_round_figures_write_as_json():
