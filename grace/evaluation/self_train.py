@@ -114,7 +114,7 @@ def self_train_markdown(settings: Mapping[str, Any], rounds: Sequence[RoundFigur
         row += [_cell(r.test.get(str(s), {}).get("p_at_1_strict")) for s in sizes]
         row += [_cell(r.test.get(str(s), {}).get("no_sequence_share")) for s in sizes]
         lines.append("| " + " | ".join(row) + " |")
-    chosen = chosen_round([r.to_json() for r in rounds])
+    chosen = chosen_round([r.first_choice for r in rounds])
     if chosen is not None:
         lines += ["", f"Chosen round (its first choice on fresh draws right most often): {chosen}"]
     return "\n".join(lines) + "\n"
@@ -131,12 +131,11 @@ def _label_source(settings: Mapping[str, Any]) -> str:
     return f"{source}, probed ({probe} checks){own}"
 
 
-def chosen_round(rounds: Sequence[Mapping[str, Any]]) -> int | None:
-    """The round (index into `rounds`, `RoundFigures.to_json` each) whose model's first choice
-    on fresh draws is right most often, the earlier one on a tie (it trained on fewer labels);
+def chosen_round(judged: Sequence[float | None]) -> int | None:
+    """The round whose model's first choice on fresh draws is right most often (`judged`, each
+    round's `RoundFigures.first_choice`), the earlier one on a tie (it trained on fewer labels);
     None unless every round was judged. It reads no test ground truth: R chosen per run without
     one."""
-    judged = [r.get("first_choice") for r in rounds]
     if not judged or None in judged:
         return None
     return int(np.argmax(judged))
@@ -177,7 +176,7 @@ def pooled_markdown(runs: Sequence[Mapping[str, Any]]) -> str:
         last = min(len(b["rounds"]) for b in bodies)
         for r in range(last):
             rows.append(_row(source, str(r), [b["rounds"][r] for b in bodies], sizes))
-        chosen = [chosen_round(b["rounds"][:last]) for b in bodies]
+        chosen = [chosen_round([d.get("first_choice") for d in b["rounds"][:last]]) for b in bodies]
         if None not in chosen:
             picked = [b["rounds"][c] for b, c in zip(bodies, chosen, strict=True)]
             rows.append(_row(source, f"chosen ({', '.join(map(str, chosen))})", picked, sizes))

@@ -132,8 +132,12 @@ def run(cfg: DictConfig) -> float:
     }  # fmt: skip
 
     def report(rounds: list[RoundFigures]) -> None:
-        done = [r.to_json() for r in rounds]
-        body = {"settings": settings, "rounds": done, "chosen_round": chosen_round(done)}
+        chosen = chosen_round([r.first_choice for r in rounds])
+        body = {
+            "settings": settings,
+            "rounds": [r.to_json() for r in rounds],
+            "chosen_round": chosen,
+        }
         write_json_atomic(out_dir / "self_train.json", body)
         shown = {k: v for k, v in settings.items() if k != "planner"}
         write_text_atomic(out_dir / "self_train.md", self_train_markdown(shown, rounds))

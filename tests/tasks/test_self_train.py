@@ -141,9 +141,9 @@ def test_no_drawn_assembly_copies_a_test_assembly(fake_simulator):
 
 
 def test_the_chosen_round_is_the_best_judged_and_the_earlier_on_a_tie():
-    judged = [{"first_choice": f} for f in (0.4, 0.6, 0.6, 0.5)]
+    judged = [0.4, 0.6, 0.6, 0.5]
     assert chosen_round(judged) == 1
-    assert chosen_round([*judged, {"first_choice": None}]) is None and chosen_round([]) is None
+    assert chosen_round([*judged, None]) is None and chosen_round([]) is None
 
 
 def test_the_round_figures_write_as_json():
