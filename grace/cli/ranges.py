@@ -212,6 +212,7 @@ RANGES: dict[str, Range] = {
     "task.data_seed": SEED,
     "task.draw_seed": SEED,
     "task.rounds": at_least(0, "self-training rounds; 0: the original training set only"),
+    "task.patience": at_least(1, "judged rounds without a better one before a stop; null: R"),
     "task.probe_checks": at_least(0, "checks per probed step's sub-search; null: no probe"),
     "task.train_size": SIZE,
     "task.infer_size": SIZE,

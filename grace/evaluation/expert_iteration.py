@@ -12,7 +12,7 @@ from typing import Any
 
 from grace.domain.assembly import Assembly
 from grace.domain.sample import LabelledAssembly
-from grace.evaluation.self_train import Labels, RoundFigures
+from grace.evaluation.self_train import Labels, RoundFigures, chosen_round
 from grace.planning.cell_steps import SimulatorSteps
 from grace.planning.fixation_prior import FixationPrior
 from grace.planning.search import VerifiedSearch
@@ -132,12 +132,15 @@ def expert_iteration(
     label: Labeller,
     score: Score,
     report: Callable[[list[RoundFigures]], None],
+    patience: int | None = None,
 ) -> list[RoundFigures]:
     """Rounds 0..`rounds` (module docstring): `draw(r)` gives round r's new assemblies, each
     round's model trains on `train` plus every assembly labelled so far; `report` gets the
     figures after every round. Each round's model is judged on the next round's draws
     (`RoundFigures.first_choice`); with `rounds` ≥ 1 the last one on one more draw (round
-    `rounds` + 1), labelled for that only."""
+    `rounds` + 1), labelled for that only. With `patience` p, the rounds stop early once the
+    last p judged rounds were none better than an earlier one (`chosen_round`): round r's
+    draws then only judged round r − 1, and no model trains on them."""
     added: list[LabelledAssembly] = []
     scorer: Scorer | None = None
     done: list[RoundFigures] = []
@@ -150,6 +153,14 @@ def expert_iteration(
             tick = time.perf_counter()
             labelled = label_round(scorer, drawn, label, figures)
             done[-1].first_choice = first_choice_share(labelled)
+            if _stale(done, patience):
+                judge = figures.seconds["draw"] + time.perf_counter() - tick
+                done[-1].seconds["judge"] = judge
+                report(done)
+                log.info(
+                    "stopped before round %d: no better first choice for %d rounds", r, patience
+                )
+                return done
             added += labelled
             figures.seconds["label"] = time.perf_counter() - tick
             tick = time.perf_counter()
@@ -172,3 +183,9 @@ def expert_iteration(
         done[-1].seconds["judge"] = time.perf_counter() - tick
         report(done)
     return done
+
+
+def _stale(done: Sequence[RoundFigures], patience: int | None) -> bool:
+    """Whether the last `patience` judged rounds were none better than an earlier round."""
+    best = chosen_round([r.first_choice for r in done])
+    return patience is not None and best is not None and len(done) - 1 - best >= patience

@@ -31,7 +31,7 @@ class Labels(StrEnum):
 REPLICATE_SETTINGS = ("seed",)
 """Settings in which runs pooled into one row may differ: they repeat, not vary, a run."""
 
-LATER_SETTINGS = {"probe_own_sequence": False}
+LATER_SETTINGS = {"probe_own_sequence": False, "patience": None}
 """Settings added after runs were made, with the value those runs had; any other setting a run
 does not name had the null it defaults to (`task.probe_checks`)."""
 

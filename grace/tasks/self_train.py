@@ -16,7 +16,9 @@ The test assemblies' ground truth is read only to score. Each round's model is a
 next round's draws by its first choice, checked by the simulator (the last one on one more draw),
 and the round judged best is named (`chosen_round`): R chosen without any ground truth. After
 every round self_train.json and self_train.md are rewritten (atomically) in the run folder;
-returns the last round's mean strict P@1 over the test sizes.
+with `task.patience` the rounds stop once that many judged rounds were none better. Returns
+the chosen round's mean strict P@1 over the test sizes (the last round's when none was
+chosen, R = 0).
 """
 
 from __future__ import annotations
@@ -76,6 +78,8 @@ class SelfTrainSettings(TaskSettings):
     probe_checks: int | None = field(default=None, metadata=WEIGHTS)
     # probed labels: also decide the states on the policy's own first choice (at `threshold`)
     probe_own_sequence: bool = field(default=False, metadata=WEIGHTS)
+    # stop once this many judged rounds in a row were none better than an earlier one; None: R
+    patience: int | None = field(default=None, metadata=WEIGHTS)
     # the protocol's fold: its training, validation and test assemblies
     fold: int = field(default=0, metadata=WEIGHTS)
     # λ of P@1 and of "no complete sequence" (docs/metrics.md)
@@ -83,7 +87,7 @@ class SelfTrainSettings(TaskSettings):
 
 
 def run(cfg: DictConfig) -> float:
-    """Self-train on the protocol's fold `task.fold`; return the last round's mean strict P@1."""
+    """Self-train on the protocol's fold `task.fold`; return the chosen round's mean strict P@1."""
     out_dir = Path(cfg.paths.output_dir)
     task = cfg.task
     data = instantiate(cfg.dataset).load()
@@ -125,7 +129,7 @@ def run(cfg: DictConfig) -> float:
     settings = {
         "labels": str(task.labels), "mask_unknown": bool(task.mask_unknown),
         "probe_checks": task.probe_checks, "probe_own_sequence": bool(task.probe_own_sequence),
-        "rounds": int(task.rounds), "sizes": sizes,
+        "rounds": int(task.rounds), "patience": task.patience, "sizes": sizes,
         "draw_seed": int(task.draw_seed), "fold": int(task.fold), "seed": int(cfg.seed),
         "train": len(train), "val": len(val), "test": len(test),
         "planner": OmegaConf.to_container(cfg.planner, resolve=True),
@@ -142,8 +146,10 @@ def run(cfg: DictConfig) -> float:
         shown = {k: v for k, v in settings.items() if k != "planner"}
         write_text_atomic(out_dir / "self_train.md", self_train_markdown(shown, rounds))
 
-    done = expert_iteration(int(task.rounds), train, draw, fit, label, score, report)
-    last = [f["p_at_1_strict"] for f in done[-1].test.values()]
+    patience = None if task.patience is None else int(task.patience)
+    done = expert_iteration(int(task.rounds), train, draw, fit, label, score, report, patience)
+    chosen = chosen_round([r.first_choice for r in done])
+    kept = [f["p_at_1_strict"] for f in done[-1 if chosen is None else chosen].test.values()]
     print(self_train_markdown({"labels": str(task.labels)}, done))
     print(f"self_train.json and self_train.md in {out_dir}")
-    return float(np.mean(last)) if last else float("nan")
+    return float(np.mean(kept)) if kept else float("nan")

@@ -13,7 +13,11 @@ from hydra.utils import instantiate
 from grace.data.unlabelled import UnlabelledDraws, layout_key
 from grace.domain.orders import GroundTruth
 from grace.domain.sample import LabelledAssembly
-from grace.evaluation.expert_iteration import brute_force_labeller, expert_iteration
+from grace.evaluation.expert_iteration import (
+    FIRST_CHOICE,
+    brute_force_labeller,
+    expert_iteration,
+)
 from grace.evaluation.self_train import RoundFigures, chosen_round, self_train_markdown
 from grace.planning.self_labels import plan_labels
 from grace.tasks.self_train import run
@@ -101,6 +105,44 @@ def test_each_round_is_judged_by_its_first_choice_on_the_next_draws(fake_simulat
     assert chosen in self_train_markdown({}, done)
 
 
+@pytest.mark.parametrize("patience, trained", [(1, 2), (2, 3), (None, 3)])
+def test_the_rounds_stop_once_patience_judged_rounds_were_no_better(
+    fake_simulator, samples, patience, trained
+):
+    """Round 0's model always chooses right on fresh draws, every later one never: with
+    patience 1 the rounds stop once round 1 is judged (round 2's draws judge it and train
+    nothing); with patience 2 round 2 still trains, and the last round is judged on one more
+    draw as without patience."""
+    simulator = instantiate(fake_simulator)
+    truth_label = brute_force_labeller(simulator)
+    draws = UnlabelledDraws(simulator, seed=7)
+    fits = []
+
+    def fit(samples, r):
+        fits.append(len(samples))
+        scorer = lambda assembly, states: np.full((len(states), assembly.n_parts), 0.5)  # noqa: E731
+        scorer.right = r == 0
+        return scorer
+
+    def label(scorer, assembly):
+        sample = truth_label(scorer, assembly)
+        if sample.truth.feasible:
+            sample.info[FIRST_CHOICE] = scorer.right
+        return sample
+
+    reports = []
+    done = expert_iteration(
+        2, samples, lambda r: [d.assembly for d in draws.batch(r, SIZES, [])], fit, label,
+        lambda scorer: {}, reports.append, patience,
+    )  # fmt: skip
+    assert len(fits) == len(done) == trained
+    assert [r.first_choice for r in done] == [1.0] + [0.0] * (trained - 1)
+    assert chosen_round([r.first_choice for r in done]) == 0
+    assert "judge" in done[-1].seconds and reports[-1] == done
+    if patience == 1:  # round 2's draws were labelled, judged round 1, and joined no training
+        assert done[-1].added == fits[-1] - len(samples) == done[-1].labelled
+
+
 def test_the_test_assemblies_truth_is_read_only_to_score(fake_simulator, samples):
     simulator = instantiate(fake_simulator)
     rng = np.random.default_rng(3)
@@ -159,11 +201,14 @@ def test_the_task_writes_its_rounds(cfg_factory):
         "task=self_train", "scale=smoke", "protocol=upward", "protocol.folds=2",
         "protocol.train_sizes=[3,4,5]", "protocol.test_sizes=[6,7]", "trainer.max_epochs=1",
         "task.sizes={6: 2, 7: 2}", "task.rounds=1", "threads=1", "task.probe_checks=20",
-        "task.probe_own_sequence=true",
+        "task.probe_own_sequence=true", "task.patience=1",
     )  # fmt: skip
-    run(cfg)
+    value = run(cfg)
     out = json.loads((Path(cfg.paths.output_dir) / "self_train.json").read_text())
     assert out["settings"]["probe_checks"] == 20 and out["settings"]["probe_own_sequence"]
+    assert out["settings"]["patience"] == 1
+    kept = out["rounds"][-1 if out["chosen_round"] is None else out["chosen_round"]]["test"]
+    assert value == pytest.approx(np.mean([f["p_at_1_strict"] for f in kept.values()]))
     first, second = out["rounds"]
     assert (first["drawn"], second["drawn"]) == (0, 4)
     assert second["added"] == second["labelled"] == second["verified"] + second["infeasible"]
