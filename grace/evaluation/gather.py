@@ -5,7 +5,9 @@ Every results.json under the given folders is read (grace/evaluation/results.py)
 results.md), Table 3 (one-to-many: a row per training size, with the strict P@1 beside the
 paper's two AUCs). Runs that differ in anything but the protocol and its sizes (a model variant,
 as in the ablation sweep) get their own block of rows, labelled by those overrides; baselines
-appear as variants of their own. Runs that differ only in `seed` (or `dataset.seed`) are
+appear as variants of their own, one per planning rule (`threshold=`, `task.threshold`) they
+were planned under. A run re-planned from another's weights (`task.checkpoints`) is labelled
+by its other overrides. Runs that differ only in `seed` (or `dataset.seed`) are
 replicates, not variants: their cells pool them (mean ± std over the runs' fold means, counts
 summed) and the block's label says how many seeds, e.g. the `seeds` sweep
 (`python -m grace -m seed=0,1,2 dataset.seed=0`: training seeds on one data set) gathers into
@@ -40,6 +42,14 @@ REPLICATE_KEYS = ("seed", "dataset.seed")
 
 PLACE_KEYS = ("paths", "hydra")
 """Overrides that say where a run writes (paths.output_dir, hydra.run.dir), not a variant."""
+
+WEIGHTS_SOURCE_KEYS = ("task.checkpoints",)
+"""Overrides that say where a re-planned run's weights come from: a re-planned run is the
+variant its other overrides say (e.g. `threshold=relative`), not a variant of its path."""
+
+RULE_KEYS = ("threshold", "task.threshold")
+"""Overrides (and their sub-keys) of the rule every policy of a run is planned under, the floors
+included: a floor planned under another rule is another floor (docs/metrics.md)."""
 
 TABLE3_PROTOCOLS = ("one_to_many", "upward")
 """The protocols of Table 3 (a row per training set: one size, or A3–A7 for `upward`, whose
@@ -76,9 +86,21 @@ def _variant_overrides(results: ExperimentResults) -> dict[str, str]:
         key, _, value_ = override.partition("=")
         key = key.lstrip("+~")
         top = key.split(".")[0]
-        if top not in SIZE_KEYS and top not in PLACE_KEYS and key not in REPLICATE_KEYS:
+        if top in SIZE_KEYS or top in PLACE_KEYS or key in REPLICATE_KEYS:
+            continue
+        if key not in WEIGHTS_SOURCE_KEYS:
             out[key] = value_
     return out
+
+
+def _rule(results: ExperimentResults) -> str:
+    """The planning rule's overrides of a run (RULE_KEYS), as a baseline's label suffix."""
+    rule = [
+        f"{k}={v}"
+        for k, v in _variant_overrides(results).items()
+        if any(k == r or k.startswith(f"{r}.") for r in RULE_KEYS)
+    ]
+    return f" ({' '.join(rule)})" if rule else ""
 
 
 def variants(runs: list[ExperimentResults]) -> list[str]:
@@ -149,7 +171,9 @@ def gather_runs(runs: list[ExperimentResults], paths: list[Path]) -> Gathered:
     tables: dict[str, dict] = {"table2": {}, "table3": {}}
     seeds: dict[str, set] = {}
     for results, label in zip(runs, variants(runs), strict=True):
-        policies = {label: results.per_size} | {n: b.per_size for n, b in results.baselines.items()}
+        rule = _rule(results)
+        baselines = {f"{n}{rule}": b.per_size for n, b in results.baselines.items()}
+        policies = {label: results.per_size} | baselines
         if results.protocol in TABLE3_PROTOCOLS:
             table, key = "table3", "+".join(str(s) for s in results.train_sizes)
         else:

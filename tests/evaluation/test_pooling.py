@@ -58,3 +58,30 @@ def test_a_malformed_results_file_names_the_file_and_field(tmp_path, results_run
     (folder / "results.json").write_text(json.dumps(results))
     with pytest.raises(UserError, match=r"results\.json: field 'per_size\.5\.seq_auc\.mean'"):
         collect([folder / "results.json"])
+
+
+def test_a_re_planned_run_is_its_rule_and_its_floors_are_that_rule_s(
+    tmp_path, results_run, size_entry
+):
+    """The same weights re-planned under the relative rule (`task.checkpoints`): the variant is
+    the rule, not the weights' path, and each rule's floor keeps its own figures."""
+    runs = tmp_path / "runs"
+    results_run(
+        runs / "abs", "upward", [3], [8], size_entry(0.6), ["seed=0"], 0,
+        {"constant": size_entry(0.0)},
+    )  # fmt: skip
+    replanned = ["seed=0", f"task.checkpoints={runs / 'abs'}", "threshold=relative"]
+    results_run(
+        runs / "rel", "upward", [3], [8], size_entry(0.7), replanned, 0,
+        {"constant": size_entry(0.5)},
+    )  # fmt: skip
+    table3 = json.loads(json.dumps(plain(collect(find_results([runs])))))["table3"]
+    assert set(table3) == {
+        "GRACE",
+        "threshold=relative",
+        "constant",
+        "constant (threshold=relative)",
+    }
+    assert table3["constant"]["3"]["8"]["seq_auc"]["mean"] == 0.0
+    assert table3["constant (threshold=relative)"]["3"]["8"]["seq_auc"]["mean"] == 0.5
+    assert table3["threshold=relative"]["3"]["8"]["seq_auc"]["mean"] == 0.7
