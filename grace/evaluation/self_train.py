@@ -5,12 +5,15 @@ training seeds (`pooled_markdown`, written by task=gather)."""
 
 from __future__ import annotations
 
+import json
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from enum import StrEnum
+from pathlib import Path
 from typing import Any
 
 import numpy as np
+import yaml
 
 from grace.data.atomic import finite_or_null
 from grace.errors import UserError
@@ -31,7 +34,7 @@ class Labels(StrEnum):
 REPLICATE_SETTINGS = ("seed",)
 """Settings in which runs pooled into one row may differ: they repeat, not vary, a run."""
 
-LATER_SETTINGS = {"probe_own_sequence": False, "patience": None}
+LATER_SETTINGS = {"probe_own_sequence": False, "patience": None, "model": []}
 """Settings added after runs were made, with the value those runs had; any other setting a run
 does not name had the null it defaults to (`task.probe_checks`)."""
 
@@ -120,15 +123,32 @@ def self_train_markdown(settings: Mapping[str, Any], rounds: Sequence[RoundFigur
     return "\n".join(lines) + "\n"
 
 
+def model_overrides(overrides: Sequence[str]) -> list[str]:
+    """The overrides of a run that change its model (`model…=`, e.g. `model/loss=listwise`):
+    runs that differ in them are pooled apart."""
+    return sorted(o for o in overrides if o.lstrip("+~").startswith(("model.", "model/", "model=")))
+
+
+def read_self_train(path: Path) -> dict[str, Any]:
+    """A run's self_train.json. A run written before its settings named the model overrides
+    gets them from the command line Hydra kept beside it (.hydra/overrides.yaml), if any."""
+    body = json.loads(path.read_text())
+    kept = path.parent / ".hydra" / "overrides.yaml"
+    if "model" not in body["settings"] and kept.is_file():
+        body["settings"]["model"] = model_overrides(yaml.safe_load(kept.read_text()) or [])
+    return body
+
+
 def _label_source(settings: Mapping[str, Any]) -> str:
+    model = "".join(f" · {o}" for o in settings.get("model", []))
     if Labels(settings["labels"]) is not Labels.verified:
-        return str(settings["labels"])
+        return f"{settings['labels']}{model}"
     source = "verified, masked" if settings.get("mask_unknown", False) else "verified, unmasked"
     probe = settings.get("probe_checks")
     if probe is None:
-        return source
+        return f"{source}{model}"
     own = " and on its own sequence" if settings.get("probe_own_sequence", False) else ""
-    return f"{source}, probed ({probe} checks){own}"
+    return f"{source}, probed ({probe} checks){own}{model}"
 
 
 def chosen_round(judged: Sequence[float | None]) -> int | None:

@@ -8,7 +8,6 @@ Self-training runs (their self_train.json) pool into self_train_gather.md instea
 
 from __future__ import annotations
 
-import json
 import logging
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -19,7 +18,7 @@ from grace.cli.runner import TaskSettings
 from grace.data.atomic import write_text_atomic
 from grace.evaluation.gather import collect, find_results, gather_markdown
 from grace.evaluation.results import to_json
-from grace.evaluation.self_train import SELF_TRAIN_FILE, pooled_markdown
+from grace.evaluation.self_train import SELF_TRAIN_FILE, pooled_markdown, read_self_train
 from grace.roles import RUN
 
 log = logging.getLogger(__name__)
@@ -38,7 +37,7 @@ def run(cfg: DictConfig) -> None:
     out_dir = Path(cfg.paths.output_dir)
     self_trained = find_results(cfg.task.roots, SELF_TRAIN_FILE, required=False)
     if self_trained:
-        markdown = pooled_markdown([json.loads(p.read_text()) for p in self_trained])
+        markdown = pooled_markdown([read_self_train(p) for p in self_trained])
         write_text_atomic(out_dir / "self_train_gather.md", markdown)
         print(markdown)
         log.info("gathered %d self-training runs into %s", len(self_trained), out_dir)

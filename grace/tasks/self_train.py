@@ -32,7 +32,7 @@ from hydra.utils import instantiate
 from omegaconf import MISSING, DictConfig, OmegaConf
 
 from grace.cli.folds import protocol_folds
-from grace.cli.runner import TaskSettings
+from grace.cli.runner import TaskSettings, task_overrides
 from grace.data.atomic import write_json_atomic, write_text_atomic
 from grace.data.unlabelled import UnlabelledDraws
 from grace.domain.assembly import Assembly
@@ -48,6 +48,7 @@ from grace.evaluation.self_train import (
     Labels,
     RoundFigures,
     chosen_round,
+    model_overrides,
     self_train_markdown,
     size_figures,
 )
@@ -133,6 +134,7 @@ def run(cfg: DictConfig) -> float:
         "draw_seed": int(task.draw_seed), "fold": int(task.fold), "seed": int(cfg.seed),
         "train": len(train), "val": len(val), "test": len(test),
         "planner": OmegaConf.to_container(cfg.planner, resolve=True),
+        "model": model_overrides(task_overrides()),
     }  # fmt: skip
 
     def report(rounds: list[RoundFigures]) -> None:

@@ -60,8 +60,14 @@ def test_missing_root_is_a_clear_error(tmp_path):
         _gather(tmp_path / "empty", tmp_path)
 
 
-def _self_train_run(folder, seed, labels, p_at_1, draw_seed=2, probe=None, own=False):
+def _self_train_run(
+    folder, seed, labels, p_at_1, draw_seed=2, probe=None, own=False, model=(), kept=False
+):
+    """A self_train.json; `model` overrides in its settings, or with `kept` only in the
+    .hydra/overrides.yaml beside it, as runs from before the setting have them."""
     settings = {"labels": labels, "mask_unknown": True, "draw_seed": draw_seed, "seed": seed}
+    if model and not kept:
+        settings["model"] = list(model)
     if probe is not None or seed:  # seed 0 runs stand for runs from before the setting existed
         settings["probe_checks"] = probe
     if own or seed:
@@ -70,8 +76,11 @@ def _self_train_run(folder, seed, labels, p_at_1, draw_seed=2, probe=None, own=F
     rounds = [{"round": r, "added": 60 * r, "test": test} for r in range(2)]
     if own:  # runs from before the first choice was judged lack it
         rounds = [{**r, "first_choice": 0.3 + 0.1 * r["round"]} for r in rounds]
-    folder.mkdir(parents=True)
+    (folder / ".hydra").mkdir(parents=True)
     (folder / "self_train.json").write_text(json.dumps({"settings": settings, "rounds": rounds}))
+    if kept:
+        lines = [f"- seed={seed}", *(f"- {o}" for o in model), "- paths.data_dir=/data"]
+        (folder / ".hydra" / "overrides.yaml").write_text("\n".join(lines) + "\n")
 
 
 def test_gather_pools_self_training_runs_over_seeds_per_label_source(tmp_path):
@@ -81,6 +90,11 @@ def test_gather_pools_self_training_runs_over_seeds_per_label_source(tmp_path):
     _self_train_run(tmp_path / "runs" / "e", 0, "verified", 0.8, probe=30)
     _self_train_run(tmp_path / "runs" / "f", 1, "verified", 0.6, probe=30)
     _self_train_run(tmp_path / "runs" / "g", 1, "verified", 0.9, probe=30, own=True)
+    listwise = ["model/loss=listwise"]
+    _self_train_run(tmp_path / "runs" / "h", 1, "verified", 0.2, probe=30, model=listwise)
+    _self_train_run(
+        tmp_path / "runs" / "i", 2, "verified", 0.4, probe=30, model=listwise, kept=True
+    )
     out = tmp_path / "out"
     run(
         OmegaConf.create(
@@ -95,6 +109,9 @@ def test_gather_pools_self_training_runs_over_seeds_per_label_source(tmp_path):
     assert "on its own sequence | chosen (1) | 1 | 60 | 0.40 ± 0.00 |" in md
     assert md.count("chosen") == 1  # the other runs' rounds were not judged
     assert own in md
+    assert (
+        "| verified, masked, probed (30 checks) · model/loss=listwise | 1 | 2 | 60 | – | 0.30" in md
+    )
     _self_train_run(tmp_path / "runs" / "d", 2, "verified", 0.6, draw_seed=5)
     with pytest.raises(UserError, match=r"self_train\.json: runs of 'verified, masked'"):
         _gather(tmp_path / "runs", out)
