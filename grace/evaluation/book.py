@@ -27,7 +27,7 @@ from grace.evaluation.gather import (
     sizes_of,
     table3_markdown,
 )
-from grace.evaluation.results import ExperimentResults, SizeSummary, read_results
+from grace.evaluation.results import ExperimentResults, SizeSummary, hydra_overrides, read_results
 from grace.evaluation.tables import cell, markdown_table, metrics_table, p_at_k, scheme_auc, value
 
 ENTRY = ("python", "-m", "grace")
@@ -63,9 +63,8 @@ def run_command(run_dir: Path, results: ExperimentResults) -> Command:
     """The command line that made the run in `run_dir`, from Hydra's records there (the
     overrides in results.json where a run folder has none)."""
     records = run_dir / ".hydra"
-    if (records / "overrides.yaml").is_file():
-        overrides = [str(o) for o in OmegaConf.load(records / "overrides.yaml")]
-    else:
+    overrides = hydra_overrides(run_dir)
+    if overrides is None:
         overrides = [] if results.run is None else list(results.run.overrides)
     prefix: list[str] = []
     if (records / "hydra.yaml").is_file():

@@ -86,9 +86,7 @@ def _variant_overrides(results: ExperimentResults) -> dict[str, str]:
         key, _, value_ = override.partition("=")
         key = key.lstrip("+~")
         top = key.split(".")[0]
-        if top in SIZE_KEYS or top in PLACE_KEYS or key in REPLICATE_KEYS:
-            continue
-        if key not in WEIGHTS_SOURCE_KEYS:
+        if top not in SIZE_KEYS + PLACE_KEYS and key not in REPLICATE_KEYS + WEIGHTS_SOURCE_KEYS:
             out[key] = value_
     return out
 

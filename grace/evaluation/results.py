@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any
 
+import yaml
 from pydantic import (
     AliasChoices,
     BeforeValidator,
@@ -52,6 +53,13 @@ CONFIG = ConfigDict(use_attribute_docstrings=True)
 
 RESULTS_FILE = "results.json"
 SCHEMA_FILE = Path(__file__).resolve().parents[2] / "docs" / "results-schema.json"
+
+
+def hydra_overrides(run_dir: Path) -> list[str] | None:
+    """The command-line overrides Hydra kept in a run folder (.hydra/overrides.yaml), None
+    where it kept none."""
+    kept = run_dir / ".hydra" / "overrides.yaml"
+    return [str(o) for o in yaml.safe_load(kept.read_text()) or []] if kept.is_file() else None
 
 
 @dataclass

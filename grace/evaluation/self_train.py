@@ -13,11 +13,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from grace.data.atomic import finite_or_null
 from grace.errors import UserError
 from grace.evaluation.report import mean_std
+from grace.evaluation.results import hydra_overrides
 from grace.evaluation.tables import cell, markdown_table
 
 SELF_TRAIN_FILE = "self_train.json"
@@ -133,9 +133,9 @@ def read_self_train(path: Path) -> dict[str, Any]:
     """A run's self_train.json. A run written before its settings named the model overrides
     gets them from the command line Hydra kept beside it (.hydra/overrides.yaml), if any."""
     body = json.loads(path.read_text())
-    kept = path.parent / ".hydra" / "overrides.yaml"
-    if "model" not in body["settings"] and kept.is_file():
-        body["settings"]["model"] = model_overrides(yaml.safe_load(kept.read_text()) or [])
+    kept = hydra_overrides(path.parent)
+    if "model" not in body["settings"] and kept is not None:
+        body["settings"]["model"] = model_overrides(kept)
     return body
 
 
