@@ -92,16 +92,24 @@ def declared_roles(schemas: Schemas, root: type) -> tuple[dict[str, Role], list[
 @functools.cache
 def run_roles(run: str | None) -> dict[str, Role]:
     """The declared roles of a run of the task whose `run._target_` is `run` (None: no task's
-    own keys): the root config, every group's schemas, that task's settings."""
+    own keys): the root config, every group's schemas, that task's settings. A group the task
+    does not read (its settings' `reads`, grace/cli/runner.py) cannot change its results: its
+    key is `run` for that task (task=experiment re-plans a kept run whatever `planner.*` says,
+    since only self-training labels with the planner)."""
     from grace.cli.schemas import GROUP_SCHEMAS, RootConfig, light_schemas, task_schemas
     from grace.simulation.cell_config import simulator_schemas
 
     schemas = light_schemas() | simulator_schemas()
     for build in GROUP_SCHEMAS.values():
         schemas |= build()
-    if run is not None:
-        schemas |= task_schemas(run=run)
-    return declared_roles(schemas, RootConfig)[0]
+    task = task_schemas(run=run) if run is not None else {}
+    roles = declared_roles(schemas | task, RootConfig)[0]
+    reads = next(iter(task.values())).reads if task else None
+    if reads is not None:
+        mounts = schema_mounts()
+        for group in GROUP_SCHEMAS.keys() - set(reads):
+            roles |= {mounts[path]: Role.run for path in GROUP_SCHEMAS[group]()}
+    return roles
 
 
 def keys_of(run: str | None, *roles: Role) -> tuple[str, ...]:

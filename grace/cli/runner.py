@@ -26,7 +26,8 @@ class TaskSettings:
     `reads` (a class attribute, no config key) names the config groups with heavy schemas that
     the task reads (grace/cli/schemas.py, GROUP_SCHEMAS), None for all: the others compose
     untyped and their modules are not imported, which saves a task that trains nothing the
-    seconds Lightning takes to load."""
+    seconds Lightning takes to load. A group the task does not read cannot change its results,
+    so a kept run is compared without its keys (grace/cli/key_roles.py, run_roles)."""
 
     name: str = field(default=MISSING, metadata=WEIGHTS)
     run: Any = field(default=MISSING, metadata=WEIGHTS)

@@ -153,6 +153,8 @@ class Gathered:
     table2: dict[str, dict[str, dict[str, SizeSummary]]] = field(default_factory=dict)
     table3: dict[str, dict[str, dict[str, SizeSummary]]] = field(default_factory=dict)
     runs: list[str] = field(default_factory=list)
+    table3_protocols: list[str] = field(default_factory=list)
+    """The protocols of Table 3's runs (TABLE3_PROTOCOLS order): its heading names them."""
 
 
 def collect(paths: Iterable[Path]) -> Gathered:
@@ -168,6 +170,7 @@ def gather_runs(runs: list[ExperimentResults], paths: list[Path]) -> Gathered:
     """
     tables: dict[str, dict] = {"table2": {}, "table3": {}}
     seeds: dict[str, set] = {}
+    table3_protocols = [p for p in TABLE3_PROTOCOLS if any(r.protocol == p for r in runs)]
     for results, label in zip(runs, variants(runs), strict=True):
         rule = _rule(results)
         baselines = {f"{n}{rule}": b.per_size for n, b in results.baselines.items()}
@@ -198,7 +201,9 @@ def gather_runs(runs: list[ExperimentResults], paths: list[Path]) -> Gathered:
         }
         for table, by_name in tables.items()
     }
-    return Gathered(pooled["table2"], pooled["table3"], [str(p.parent) for p in paths])
+    return Gathered(
+        pooled["table2"], pooled["table3"], [str(p.parent) for p in paths], table3_protocols
+    )
 
 
 def sizes_of(blocks: Iterable[dict]) -> list[str]:
@@ -269,6 +274,7 @@ def gather_markdown(tables: Gathered) -> str:
     if tables.table2:
         parts += ["## Table 2: intra-sized and many-to-one", table2_markdown(tables.table2)]
     if tables.table3:
-        parts += ["## Table 3: one-to-many", table3_markdown(tables.table3)]
+        named = " and ".join(p.replace("_", "-") for p in tables.table3_protocols)
+        parts += [f"## Table 3: {named}", table3_markdown(tables.table3)]
         parts += ["## Table 3, every metric", table3_metrics_markdown(tables.table3)]
     return "\n\n".join(parts) + "\n"

@@ -15,7 +15,7 @@ import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from hydra.utils import instantiate
@@ -55,6 +55,16 @@ log = logging.getLogger(__name__)
 @dataclass
 class ExperimentSettings(TaskSettings):
     """Schema of `task=experiment` (values in grace/conf/task/experiment.yaml)."""
+
+    # every heavy group but `planner` and `tune`: the verified search plans nothing here
+    reads: ClassVar[tuple[str, ...] | None] = (
+        "model",
+        "datamodule",
+        "trainer",
+        "callbacks",
+        "logger",
+        "threshold",
+    )
 
     # (cfg, train, val, out_dir, callbacks) -> trained module, a partial
     fit: Any = field(default=MISSING, metadata=WEIGHTS)

@@ -168,6 +168,8 @@ def test_a_kept_checkpoint_plans_again_under_another_score(cfg_factory, samples,
         torch.sigmoid(logits).prod(dim=-1).sqrt().detach().numpy(),
         atol=1e-6,
     )
+    # task=experiment never plans with the verified search: a later planner default re-plans
+    kept_module(cfg_factory(*train, "planner.exhaustive_after=20"), tmp_path / "run")
     with pytest.raises(UserError, match=r"model\.net\.hidden \(kept 94, now 32\)"):
         kept_module(cfg_factory(*train, "model.net.hidden=32"), tmp_path / "run")
     with pytest.raises(UserError, match=r"dataset\.seed \(kept 0, now 1\)"):

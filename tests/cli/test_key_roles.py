@@ -23,6 +23,9 @@ EXPERIMENT_PLANNING = {
     "task.recording",
 }
 
+UNREAD = {"planner", "tune"}
+"""The groups a cross-validated experiment never reads: they cannot change its results."""
+
 
 def group_schemas() -> dict[str, type]:
     out = light_schemas() | simulator_schemas()
@@ -83,10 +86,10 @@ def test_one_key_declared_with_two_roles_is_an_error():
 @pytest.mark.parametrize(
     ("run", "run_keys", "planning_keys"),
     [
-        ("grace.tasks.experiment.run", {"task.fold_jobs"}, EXPERIMENT_PLANNING),
+        ("grace.tasks.experiment.run", {"task.fold_jobs", *UNREAD}, EXPERIMENT_PLANNING),
         (
             "grace.tasks.feasibility.run",
-            {"task.fold_jobs"},
+            {"task.fold_jobs", *UNREAD},
             EXPERIMENT_PLANNING | {"task.classifiers", "task.densities"},
         ),
         ("grace.tasks.train.run", set(), set()),
@@ -96,3 +99,10 @@ def test_one_key_declared_with_two_roles_is_an_error():
 def test_the_training_tasks_keep_the_roles_their_keys_had(run, run_keys, planning_keys):
     assert set(keys_of(run, Role.run)) == RUN_KEYS | run_keys
     assert set(keys_of(run, Role.planning)) == PLANNING_KEYS | planning_keys
+
+
+def test_only_a_task_that_labels_with_the_planner_retrains_when_it_changes():
+    """Self-training labels its draws with the verified search: its planner decides the weights;
+    an experiment never reads the planner, so its keys cannot change an experiment's results."""
+    assert "planner" not in keys_of("grace.tasks.self_train.run", Role.run, Role.planning)
+    assert "planner" in keys_of("grace.tasks.experiment.run", Role.run)

@@ -75,7 +75,9 @@ def test_a_re_planned_run_is_its_rule_and_its_floors_are_that_rule_s(
         runs / "rel", "upward", [3], [8], size_entry(0.7), replanned, 0,
         {"constant": size_entry(0.5)},
     )  # fmt: skip
-    table3 = json.loads(json.dumps(plain(collect(find_results([runs])))))["table3"]
+    gathered = collect(find_results([runs]))
+    assert "## Table 3: upward\n" in gather_markdown(gathered)
+    table3 = json.loads(json.dumps(plain(gathered)))["table3"]
     assert set(table3) == {
         "GRACE",
         "threshold=relative",
