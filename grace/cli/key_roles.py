@@ -115,3 +115,14 @@ def run_roles(run: str | None) -> dict[str, Role]:
 def keys_of(run: str | None, *roles: Role) -> tuple[str, ...]:
     """The declared keys of a run of task `run` (see run_roles) whose role is one of `roles`."""
     return tuple(sorted(k for k, role in run_roles(run).items() if role in roles))
+
+
+EXPERIMENT_RUN = "grace.tasks.experiment.run"
+"""The `run._target_` of task=experiment, whose runs write the results.json files that
+task=gather and task=report read."""
+
+
+def experiment_run_keys() -> tuple[str, ...]:
+    """The `run` keys of an experiment: overriding them changes how a run ran (threads, paths),
+    never what it measured, so a run that differs only in them is no variant."""
+    return keys_of(EXPERIMENT_RUN, Role.run)

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import itertools
 import shlex
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from pathlib import Path
 
 from omegaconf import OmegaConf
@@ -150,8 +150,9 @@ def _block(title: str, run_lines: list[str], report_line: str, table: str) -> li
     return [f"## {title}", f"```\n{shown}\n{report_line}\n```", table]
 
 
-def results_book(paths: Sequence[Path], report_command: str) -> str:
-    """The results book of the runs whose results.json files are `paths`."""
+def results_book(paths: Sequence[Path], report_command: str, run_keys: Collection[str] = ()) -> str:
+    """The results book of the runs whose results.json files are `paths`; overrides of
+    `run_keys` make no variant (grace/evaluation/gather.py, `variants`)."""
     runs = [read_results(path) for path in paths]
     made = [run_command(Path(p).parent, r) for p, r in zip(paths, runs, strict=True)]
     baselines = {name for r in runs for name in r.baselines}
@@ -167,7 +168,7 @@ def results_book(paths: Sequence[Path], report_command: str) -> str:
     ):
         chosen = [i for i, r in enumerate(runs) if r.protocol == protocol]
         gathered: Gathered = gather_runs(
-            [runs[i] for i in chosen], [Path(paths[i]) for i in chosen]
+            [runs[i] for i in chosen], [Path(paths[i]) for i in chosen], run_keys
         )
         run_lines = commands([made[i] for i in chosen])
         by_name = gathered.table3 if protocol in TABLE3_PROTOCOLS else gathered.table2

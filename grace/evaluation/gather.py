@@ -3,8 +3,9 @@
 Every results.json under the given folders is read (grace/evaluation/results.py): Table 2
 (intra-sized beside many-to-one, one column per test size; strict figures first, as in
 results.md), Table 3 (one-to-many: a row per training size, with the strict P@1 beside the
-paper's two AUCs). Runs that differ in anything but the protocol and its sizes (a model variant,
-as in the ablation sweep) get their own block of rows, labelled by those overrides; baselines
+paper's two AUCs). Runs that differ in anything but the protocol and its sizes and how they ran
+(threads, paths: the experiment's `run` keys, grace/roles.py) get their own block of rows (a
+model variant, as in the ablation sweep), labelled by those overrides; baselines
 appear as variants of their own, one per planning rule (`threshold=`, `task.threshold`) they
 were planned under. A run re-planned from another's weights (`task.checkpoints`) is labelled
 by its other overrides. Runs that differ only in `seed` (or `dataset.seed`) are
@@ -17,7 +18,7 @@ one block.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Iterable
+from collections.abc import Collection, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -80,13 +81,20 @@ def _replicate(results: ExperimentResults) -> tuple:
     return (None, None) if results.run is None else (results.run.seed, results.run.data_seed)
 
 
-def _variant_overrides(results: ExperimentResults) -> dict[str, str]:
+def _variant_overrides(
+    results: ExperimentResults, run_keys: Collection[str] = ()
+) -> dict[str, str]:
+    """A run's overrides that may make it a variant: not its protocol and sizes, its place, its
+    seeds, its weights' source, nor a `run_keys` key (or one below it)."""
     out = {}
     for override in [] if results.run is None else results.run.overrides:
         key, _, value_ = override.partition("=")
         key = key.lstrip("+~")
-        top = key.split(".")[0]
-        if top not in SIZE_KEYS + PLACE_KEYS and key not in REPLICATE_KEYS + WEIGHTS_SOURCE_KEYS:
+        parts = key.split(".")
+        ran = any(".".join(parts[:n]) in run_keys for n in range(1, len(parts) + 1))
+        if ran or parts[0] in SIZE_KEYS + PLACE_KEYS:
+            continue
+        if key not in REPLICATE_KEYS + WEIGHTS_SOURCE_KEYS:
             out[key] = value_
     return out
 
@@ -101,13 +109,14 @@ def _rule(results: ExperimentResults) -> str:
     return f" ({' '.join(rule)})" if rule else ""
 
 
-def variants(runs: list[ExperimentResults]) -> list[str]:
+def variants(runs: list[ExperimentResults], run_keys: Collection[str] = ()) -> list[str]:
     """Label of each run: the overrides whose values differ between the gathered runs.
 
-    Settings shared by every run (e.g. scale=paper) and the protocol/size overrides say nothing
-    about which variant a row is; "GRACE" when nothing differs.
+    Settings shared by every run (e.g. scale=paper), the protocol/size overrides and the keys
+    that say how a run ran (`run_keys`: threads, paths; grace/roles.py) say nothing about which
+    variant a row is; "GRACE" when nothing differs.
     """
-    overrides = [_variant_overrides(r) for r in runs]
+    overrides = [_variant_overrides(r, run_keys) for r in runs]
     keys = sorted({k for o in overrides for k in o})
     varying = [k for k in keys if len({o.get(k) for o in overrides}) > 1]
     return [" ".join(f"{k}={o[k]}" for k in varying if k in o) or "GRACE" for o in overrides]
@@ -157,21 +166,24 @@ class Gathered:
     """The protocols of Table 3's runs (TABLE3_PROTOCOLS order): its heading names them."""
 
 
-def collect(paths: Iterable[Path]) -> Gathered:
+def collect(paths: Iterable[Path], run_keys: Collection[str] = ()) -> Gathered:
     """The runs of `paths` (results.json files) pooled into Table 2 and Table 3 entries."""
     paths = list(paths)
-    return gather_runs([read_results(path) for path in paths], paths)
+    return gather_runs([read_results(path) for path in paths], paths, run_keys)
 
 
-def gather_runs(runs: list[ExperimentResults], paths: list[Path]) -> Gathered:
-    """`runs` (read from `paths`) pooled into Table 2 and Table 3 entries.
+def gather_runs(
+    runs: list[ExperimentResults], paths: list[Path], run_keys: Collection[str] = ()
+) -> Gathered:
+    """`runs` (read from `paths`) pooled into Table 2 and Table 3 entries; overrides of
+    `run_keys` make no variant (see `variants`).
 
     A variant run with several seeds is labelled "<variant> (<n> seeds)", its entries pooled.
     """
     tables: dict[str, dict] = {"table2": {}, "table3": {}}
     seeds: dict[str, set] = {}
     table3_protocols = [p for p in TABLE3_PROTOCOLS if any(r.protocol == p for r in runs)]
-    for results, label in zip(runs, variants(runs), strict=True):
+    for results, label in zip(runs, variants(runs, run_keys), strict=True):
         rule = _rule(results)
         baselines = {f"{n}{rule}": b.per_size for n, b in results.baselines.items()}
         policies = {label: results.per_size} | baselines

@@ -14,6 +14,7 @@ from pathlib import Path
 
 from omegaconf import MISSING, DictConfig
 
+from grace.cli.key_roles import experiment_run_keys
 from grace.cli.runner import TaskSettings
 from grace.data.atomic import write_text_atomic
 from grace.evaluation.gather import collect, find_results, gather_markdown
@@ -43,7 +44,7 @@ def run(cfg: DictConfig) -> None:
         log.info("gathered %d self-training runs into %s", len(self_trained), out_dir)
         return
     paths = find_results(cfg.task.roots)
-    tables = collect(paths)
+    tables = collect(paths, experiment_run_keys())
     write_text_atomic(out_dir / "gather.json", to_json(tables))
     markdown = gather_markdown(tables)
     write_text_atomic(out_dir / "gather.md", markdown)

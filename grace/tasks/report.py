@@ -16,6 +16,7 @@ from pathlib import Path
 
 from omegaconf import MISSING, DictConfig
 
+from grace.cli.key_roles import experiment_run_keys
 from grace.cli.runner import TaskSettings, task_overrides
 from grace.data.atomic import write_text_atomic
 from grace.evaluation.book import ENTRY, results_book
@@ -36,7 +37,7 @@ def run(cfg: DictConfig) -> None:
     """Write report.md, the results book of the runs under `cfg.task.roots`."""
     paths = find_results(cfg.task.roots)
     command = shlex.join([*ENTRY, *task_overrides()])
-    book = results_book(paths, command)
+    book = results_book(paths, command, experiment_run_keys())
     out_dir = Path(cfg.paths.output_dir)
     write_text_atomic(out_dir / "report.md", book)
     print(book)

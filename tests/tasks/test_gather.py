@@ -115,3 +115,17 @@ def test_gather_pools_self_training_runs_over_seeds_per_label_source(tmp_path):
     _self_train_run(tmp_path / "runs" / "d", 2, "verified", 0.6, draw_seed=5)
     with pytest.raises(UserError, match=r"self_train\.json: runs of 'verified, masked'"):
         _gather(tmp_path / "runs", out)
+
+
+def test_how_a_run_ran_makes_no_variant(tmp_path, results_run, size_entry):
+    """Threads, data folder and the planner (which an experiment never reads) are `run` keys of
+    an experiment: runs that differ only in them are one variant; the rule still makes one."""
+    runs = tmp_path / "runs"
+    results_run(runs / "a", "upward", [3], [8], size_entry(0.6), ["threads=2", "seed=0"])
+    ran = ["threads=1", "paths.data_dir=/elsewhere", "planner.exhaustive_after=20", "seed=1"]
+    results_run(runs / "b", "upward", [3], [8], size_entry(0.8), ran, 1)
+    results_run(runs / "c", "upward", [3], [8], size_entry(0.7), ["threshold=relative"])
+    tables, md = _gather(runs, tmp_path / "out")
+    assert set(tables["table3"]) == {"GRACE (2 seeds)", "threshold=relative"}
+    assert tables["table3"]["GRACE (2 seeds)"]["3"]["8"]["seq_auc"]["mean"] == pytest.approx(0.7)
+    assert "## Table 3: upward" in md
