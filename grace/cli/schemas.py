@@ -290,10 +290,14 @@ def _planner_schemas() -> dict[str, type]:
 
 
 def _threshold_schemas() -> dict[str, type]:
-    from grace.planning.thresholds import AbsoluteThreshold, RelativeThreshold
+    from grace.planning.thresholds import AbsoluteThreshold, LiftedThreshold, RelativeThreshold
 
     return _options(
-        "threshold", Role.planning, absolute=AbsoluteThreshold, relative=RelativeThreshold
+        "threshold",
+        Role.planning,
+        absolute=AbsoluteThreshold,
+        relative=RelativeThreshold,
+        lifted=LiftedThreshold,
     )
 
 

@@ -1,5 +1,6 @@
-"""Where Algorithm 1 cuts a state's branches: at the paper's absolute λ, or relative to the
-state's best score (`threshold=`, docs/planning.md).
+"""Where Algorithm 1 cuts a state's branches: at the paper's absolute λ, relative to the
+state's best score, or at λ with the states where nothing clears it lifted (`threshold=`,
+docs/metrics.md).
 
 The paper opens a branch for every unplaced part scoring at least λ (Algorithm 1). Scores whose
 scale drifts with the assembly's size (docs/size-generalisation.md) then fall below λ on every
@@ -8,6 +9,8 @@ score highest. The relative rule opens a branch for every part scoring at least 
 unplaced part's score in that state, so it reads the ranking, not the scale. It is applied as a
 transformation of the scores (each part's share of the state's best), so every metric of
 docs/metrics.md, the λ sweep included, measures the planner that thresholds those shares.
+Sharing out every state also reorders the sequences of an assembly that λ already plans; the
+lifted rule changes only the states where no part clears λ, so those keep the paper's order.
 """
 
 from __future__ import annotations
@@ -57,3 +60,38 @@ class RelativeThreshold:
             return relative_scores(scorer(assembly, states), np.asarray(states), self.floor)
 
         return relative
+
+
+def lifted_scores(scores: np.ndarray, states: np.ndarray, level: float, floor: float) -> np.ndarray:
+    """The unplaced parts' scores of each state whose best unplaced part scores below `level` but
+    at least `floor`, scaled so that best scores exactly `level`; every other score unchanged."""
+    scores = np.asarray(scores, dtype=np.float64)
+    free = unplaced(states, scores.shape[1])
+    best = np.where(free, scores, -np.inf).max(axis=1, keepdims=True)
+    weak = (best < level) & (best >= floor) & (best > 0.0)
+    factor = np.divide(level, best, out=np.ones_like(best), where=weak)
+    return np.where(free, scores * factor, scores)
+
+
+@dataclass(frozen=True)
+class LiftedThreshold:
+    """`threshold=lifted` (not in the paper): the paper's λ, except in a state where no unplaced
+    part clears `level` (λ, task.threshold) while the best clears `floor`: there the scores are
+    scaled so the best scores exactly `level`, and Algorithm 1 follows that part instead of
+    stopping.
+
+    An assembly whose every state has a part above λ plans exactly as under the paper's rule. A
+    sequence through a lifted state carries a factor of `level` (0.5) for it, so it ranks below
+    the confident ones, and a state where everything scores below `floor` still stops the
+    planner (a dead end, or an infeasible assembly, can still retrieve nothing).
+    """
+
+    level: float = 0.5
+    floor: float = 0.05
+
+    def __call__(self, scorer: Scorer) -> Scorer:
+        def lifted(assembly, states):
+            scores = scorer(assembly, states)
+            return lifted_scores(scores, np.asarray(states), self.level, self.floor)
+
+        return lifted

@@ -16,7 +16,9 @@ RUN_KEYS = {
     *("paths.data_dir", "paths.output_dir", "paths.fit_dir", "paths.log_file"),
 }
 """Where or how fast a run goes: the keys a rerun could change before the roles were declared."""
-PLANNING_KEYS = {"model.net.score", "classifier", "threshold._target_", "threshold.floor"}
+PLANNING_KEYS = {
+    *("model.net.score", "classifier", "threshold._target_", "threshold.floor", "threshold.level"),
+}
 """How a kept model plans: the keys `task.checkpoints` could change before (every task)."""
 EXPERIMENT_PLANNING = {
     *("task.checkpoints", "task.scorer", "task.threshold", "task.ks", "task.baselines"),
