@@ -202,6 +202,8 @@ RANGES: dict[str, Range] = {
     "planner.exhaustive_after": at_least(0, "checks per part the search spends before it"),
     # task (the TaskSettings of each grace/tasks/<name>.py)
     "task.threshold": LAMBDA,
+    # after task.threshold, which it follows by default: a bad λ is named where it was given
+    "threshold.level": LAMBDA,
     "task.ks": at_least(1, "the k of P@k"),
     "task.fold_jobs": at_least(1, "folds trained side by side"),
     "task.recording.per_size": at_least(0, "test assemblies recorded per size; 0: none"),
