@@ -24,7 +24,7 @@ from grace.planning.sequences import Scorer, unplaced
 
 @dataclass(frozen=True)
 class AbsoluteThreshold:
-    """`threshold=absolute` (the paper's, the default): a part opens a branch iff its score is at
+    """`threshold=absolute` (the paper's): a part opens a branch iff its score is at
     least λ; the scores are planned as they are."""
 
     def __call__(self, scorer: Scorer) -> Scorer:
@@ -75,10 +75,10 @@ def lifted_scores(scores: np.ndarray, states: np.ndarray, level: float, floor: f
 
 @dataclass(frozen=True)
 class LiftedThreshold:
-    """`threshold=lifted` (not in the paper): the paper's λ, except in a state where no unplaced
-    part clears `level` (λ, task.threshold) while the best clears `floor`: there the scores are
-    scaled so the best scores exactly `level`, and Algorithm 1 follows that part instead of
-    stopping.
+    """`threshold=lifted` (the default; not in the paper): the paper's λ, except in a state where
+    no unplaced part clears `level` (λ, task.threshold) while the best clears `floor`: there the
+    scores are scaled so the best scores exactly `level`, and Algorithm 1 follows that part
+    instead of stopping.
 
     An assembly whose every state has a part above λ plans exactly as under the paper's rule. A
     sequence through a lifted state carries a factor of `level` (0.5) for it, so it ranks below

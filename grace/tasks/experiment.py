@@ -50,22 +50,15 @@ from grace.visualisation.records import RecordingSettings
 from grace.visualisation.side_file_plots import draw_side_files
 
 log = logging.getLogger(__name__)
+# every heavy group but `planner` and `tune`: the verified search plans nothing here
+READS = ("model", "datamodule", "trainer", "callbacks", "logger", "threshold")
 
 
 @dataclass
 class ExperimentSettings(TaskSettings):
     """Schema of `task=experiment` (values in grace/conf/task/experiment.yaml)."""
 
-    # every heavy group but `planner` and `tune`: the verified search plans nothing here
-    reads: ClassVar[tuple[str, ...] | None] = (
-        "model",
-        "datamodule",
-        "trainer",
-        "callbacks",
-        "logger",
-        "threshold",
-    )
-
+    reads: ClassVar[tuple[str, ...] | None] = READS
     # (cfg, train, val, out_dir, callbacks) -> trained module, a partial
     fit: Any = field(default=MISSING, metadata=WEIGHTS)
     # (module) -> Scorer, a partial
