@@ -99,16 +99,17 @@ def run_roles(run: str | None) -> dict[str, Role]:
     from grace.cli.schemas import GROUP_SCHEMAS, RootConfig, light_schemas, task_schemas
     from grace.simulation.cell_config import simulator_schemas
 
+    groups = {group: build() for group, build in GROUP_SCHEMAS.items()}
     schemas = light_schemas() | simulator_schemas()
-    for build in GROUP_SCHEMAS.values():
-        schemas |= build()
+    for built in groups.values():
+        schemas |= built
     task = task_schemas(run=run) if run is not None else {}
     roles = declared_roles(schemas | task, RootConfig)[0]
     reads = next(iter(task.values())).reads if task else None
     if reads is not None:
         mounts = schema_mounts()
-        for group in GROUP_SCHEMAS.keys() - set(reads):
-            roles |= {mounts[path]: Role.run for path in GROUP_SCHEMAS[group]()}
+        for group in groups.keys() - set(reads):
+            roles |= {mounts[path]: Role.run for path in groups[group]}
     return roles
 
 

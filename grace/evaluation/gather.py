@@ -81,6 +81,13 @@ def _replicate(results: ExperimentResults) -> tuple:
     return (None, None) if results.run is None else (results.run.seed, results.run.data_seed)
 
 
+def _under(key: str, prefixes: Collection[str]) -> bool:
+    """Whether `key` is one of `prefixes` or a key below one (`planner.exhaustive_after` is
+    under `planner`)."""
+    parts = key.split(".")
+    return any(".".join(parts[:n]) in prefixes for n in range(1, len(parts) + 1))
+
+
 def _variant_overrides(
     results: ExperimentResults, run_keys: Collection[str] = ()
 ) -> dict[str, str]:
@@ -90,9 +97,7 @@ def _variant_overrides(
     for override in [] if results.run is None else results.run.overrides:
         key, _, value_ = override.partition("=")
         key = key.lstrip("+~")
-        parts = key.split(".")
-        ran = any(".".join(parts[:n]) in run_keys for n in range(1, len(parts) + 1))
-        if ran or parts[0] in SIZE_KEYS + PLACE_KEYS:
+        if _under(key, run_keys) or key.split(".")[0] in SIZE_KEYS + PLACE_KEYS:
             continue
         if key not in REPLICATE_KEYS + WEIGHTS_SOURCE_KEYS:
             out[key] = value_
@@ -101,11 +106,7 @@ def _variant_overrides(
 
 def _rule(results: ExperimentResults) -> str:
     """The planning rule's overrides of a run (RULE_KEYS), as a baseline's label suffix."""
-    rule = [
-        f"{k}={v}"
-        for k, v in _variant_overrides(results).items()
-        if any(k == r or k.startswith(f"{r}.") for r in RULE_KEYS)
-    ]
+    rule = [f"{k}={v}" for k, v in _variant_overrides(results).items() if _under(k, RULE_KEYS)]
     return f" ({' '.join(rule)})" if rule else ""
 
 

@@ -31,13 +31,19 @@ class AbsoluteThreshold:
         return scorer
 
 
+def _best_unplaced(scores: np.ndarray, states: np.ndarray) -> tuple[np.ndarray, ...]:
+    """`scores` as float64, which of them are unplaced parts, and each state's best unplaced
+    score (a column): what every rule relative to the state's best reads."""
+    scores = np.asarray(scores, dtype=np.float64)
+    free = unplaced(states, scores.shape[1])
+    return scores, free, np.where(free, scores, -np.inf).max(axis=1, keepdims=True)
+
+
 def relative_scores(scores: np.ndarray, states: np.ndarray, floor: float) -> np.ndarray:
     """Each unplaced part's score divided by the best unplaced part's of its state, where the
     part scores at least `floor` and the best above 0; elsewhere (placed parts, parts below the
     floor) min(score, 0), below every λ > 0. A share ≥ λ is a score ≥ λ × the state's best."""
-    scores = np.asarray(scores, dtype=np.float64)
-    free = unplaced(states, scores.shape[1])
-    best = np.where(free, scores, -np.inf).max(axis=1, keepdims=True)
+    scores, free, best = _best_unplaced(scores, states)
     kept = free & (scores >= floor) & (best > 0.0)
     share = np.divide(scores, best, out=np.zeros_like(scores), where=kept)
     return np.where(kept, share, np.minimum(scores, 0.0))
@@ -65,9 +71,7 @@ class RelativeThreshold:
 def lifted_scores(scores: np.ndarray, states: np.ndarray, level: float, floor: float) -> np.ndarray:
     """The unplaced parts' scores of each state whose best unplaced part scores below `level` but
     at least `floor`, scaled so that best scores exactly `level`; every other score unchanged."""
-    scores = np.asarray(scores, dtype=np.float64)
-    free = unplaced(states, scores.shape[1])
-    best = np.where(free, scores, -np.inf).max(axis=1, keepdims=True)
+    scores, free, best = _best_unplaced(scores, states)
     weak = (best < level) & (best >= floor) & (best > 0.0)
     factor = np.divide(level, best, out=np.ones_like(best), where=weak)
     return np.where(free, scores * factor, scores)
