@@ -34,9 +34,15 @@ class Labels(StrEnum):
 REPLICATE_SETTINGS = ("seed",)
 """Settings in which runs pooled into one row may differ: they repeat, not vary, a run."""
 
-LATER_SETTINGS = {"probe_own_sequence": False, "patience": None, "model": []}
-"""Settings added after runs were made, with the value those runs had; any other setting a run
-does not name had the null it defaults to (`task.probe_checks`)."""
+LATER_SETTINGS = {
+    "probe_own_sequence": False,
+    "patience": None,
+    "model": [],
+    "threshold": {"_target_": "grace.planning.thresholds.AbsoluteThreshold"},
+}
+"""Settings added after runs were made, with the value those runs had (they planned under the
+paper's λ); any other setting a run does not name had the null it defaults to
+(`task.probe_checks`)."""
 
 
 @dataclass

@@ -77,7 +77,7 @@ class ExperimentSettings(TaskSettings):
 
 def _policies(cfg: DictConfig, module: object, fold: Fold) -> dict[str, Scorer]:
     """GRACE from the trained module plus every baseline of `task.baselines`, seeded per fold,
-    each planned under the `threshold` rule (the paper's absolute λ, or relative)."""
+    each planned under the `threshold` rule (docs/metrics.md: the paper's λ, lifted or relative)."""
     unknown = sorted(set(cfg.task.baselines) - set(BASELINES))
     if unknown:
         raise ValueError(f"task.baselines: unknown {unknown}; choose from {sorted(BASELINES)}")

@@ -9,7 +9,9 @@ round's model, and labels it from the plan's verified orders only (grace/plannin
 self_labels.py: a partial label, masked to what the search knows unless
 `task.mask_unknown=false`); then a fresh model (same seed, `task.fit`, the training entry
 of every task) trains on the protocol fold's training assemblies plus every self-labelled one so
-far, and is scored on the fold's test assemblies (`evaluate_by_size`, docs/metrics.md). Round 0
+far, and is scored on the fold's test assemblies (`evaluate_by_size`, docs/metrics.md). Every
+use of a round's model (its first choice, the search's scores, the test's Algorithm 1) is planned
+under the run's `threshold=` rule, as `task=experiment` plans its folds. Round 0
 is the model trained on the original set only (R = 0). `task.labels=brute_force` labels the
 same drawn assemblies by the simulator's brute force instead: the upper bound of the same data.
 The test assemblies' ground truth is read only to score. Each round's model is also judged on the
@@ -119,9 +121,10 @@ def run(cfg: DictConfig) -> float:
             bool(task.probe_own_sequence),
         )  # fmt: skip
     fit_module = instantiate(task.fit)
+    rule = instantiate(cfg.threshold)
 
     def fit(samples: list[LabelledAssembly], r: int) -> Scorer:
-        return make_scorer(fit_module(cfg, samples, val, out_dir / f"round_{r}"))
+        return rule(make_scorer(fit_module(cfg, samples, val, out_dir / f"round_{r}")))
 
     def score(scorer: Scorer) -> dict:  # the one place the test assemblies' truth is read
         metrics = evaluate_by_size(scorer, test, [1], float(task.threshold), int(cfg.seed))
@@ -134,6 +137,7 @@ def run(cfg: DictConfig) -> float:
         "draw_seed": int(task.draw_seed), "fold": int(task.fold), "seed": int(cfg.seed),
         "train": len(train), "val": len(val), "test": len(test),
         "planner": OmegaConf.to_container(cfg.planner, resolve=True),
+        "threshold": OmegaConf.to_container(cfg.threshold, resolve=True),
         "model": model_overrides(task_overrides()),
     }  # fmt: skip
 
@@ -145,7 +149,8 @@ def run(cfg: DictConfig) -> float:
             "chosen_round": chosen,
         }
         write_json_atomic(out_dir / "self_train.json", body)
-        shown = {k: v for k, v in settings.items() if k != "planner"}
+        shown = {k: v for k, v in settings.items() if k not in ("planner", "threshold")}
+        shown["threshold"] = type(rule).__name__
         write_text_atomic(out_dir / "self_train.md", self_train_markdown(shown, rounds))
 
     patience = None if task.patience is None else int(task.patience)

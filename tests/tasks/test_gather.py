@@ -61,11 +61,15 @@ def test_missing_root_is_a_clear_error(tmp_path):
 
 
 def _self_train_run(
-    folder, seed, labels, p_at_1, draw_seed=2, probe=None, own=False, model=(), kept=False
-):
+    folder, seed, labels, p_at_1, draw_seed=2, probe=None, own=False, model=(), kept=False,
+    rule=None,
+):  # fmt: skip
     """A self_train.json; `model` overrides in its settings, or with `kept` only in the
-    .hydra/overrides.yaml beside it, as runs from before the setting have them."""
+    .hydra/overrides.yaml beside it, as runs from before the setting have them; `rule`: the
+    class of its `threshold=` rule (None: a run from before the setting)."""
     settings = {"labels": labels, "mask_unknown": True, "draw_seed": draw_seed, "seed": seed}
+    if rule is not None:
+        settings["threshold"] = {"_target_": f"grace.planning.thresholds.{rule}"}
     if model and not kept:
         settings["model"] = list(model)
     if probe is not None or seed:  # seed 0 runs stand for runs from before the setting existed
@@ -115,6 +119,23 @@ def test_gather_pools_self_training_runs_over_seeds_per_label_source(tmp_path):
     _self_train_run(tmp_path / "runs" / "d", 2, "verified", 0.6, draw_seed=5)
     with pytest.raises(UserError, match=r"self_train\.json: runs of 'verified, masked'"):
         _gather(tmp_path / "runs", out)
+
+
+def test_self_training_runs_under_other_planning_rules_do_not_pool(tmp_path):
+    """A run from before the rule was recorded planned under the paper's λ: it pools with a run
+    naming that rule, not with one planned under the lifted rule."""
+    runs, out = tmp_path / "runs", tmp_path / "out"
+    _self_train_run(runs / "a", 0, "verified", 0.4)
+    _self_train_run(runs / "b", 1, "verified", 0.6, rule="AbsoluteThreshold")
+    cfg = {"task": {"roots": [str(runs)]}, "paths": {"output_dir": str(out)}}
+    run(OmegaConf.create(cfg))
+    assert (
+        "| verified, masked | 1 | 2 | 60 | – | 0.50 ± 0.10 |"
+        in (out / "self_train_gather.md").read_text()
+    )
+    _self_train_run(runs / "c", 2, "verified", 0.8, rule="LiftedThreshold")
+    with pytest.raises(UserError, match=r"runs of 'verified, masked' labels differ"):
+        run(OmegaConf.create(cfg))
 
 
 def test_how_a_run_ran_makes_no_variant(tmp_path, results_run, size_entry):

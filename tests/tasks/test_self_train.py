@@ -207,10 +207,12 @@ def test_the_task_writes_its_rounds(cfg_factory):
     out = json.loads((Path(cfg.paths.output_dir) / "self_train.json").read_text())
     assert out["settings"]["probe_checks"] == 20 and out["settings"]["probe_own_sequence"]
     assert out["settings"]["patience"] == 1
+    assert out["settings"]["threshold"]["_target_"].endswith(".LiftedThreshold")  # the default
     kept = out["rounds"][-1 if out["chosen_round"] is None else out["chosen_round"]]["test"]
     assert value == pytest.approx(np.mean([f["p_at_1_strict"] for f in kept.values()]))
     first, second = out["rounds"]
     assert (first["drawn"], second["drawn"]) == (0, 4)
     assert second["added"] == second["labelled"] == second["verified"] + second["infeasible"]
     assert set(second["test"]) == {"6", "7"}
-    assert (Path(cfg.paths.output_dir) / "self_train.md").read_text().startswith("# Self-training")
+    md = (Path(cfg.paths.output_dir) / "self_train.md").read_text()
+    assert md.startswith("# Self-training") and "threshold: LiftedThreshold" in md
