@@ -13,9 +13,11 @@ forks:
   (also as augmentation in training). A permutation relabels ids; the graph itself is unchanged.
 
 Beyond the paper, `part_pe` may encode the part ids differently from the surface ids (null: as
-`pe`). `part_pe: none` is a lead for the one-to-many protocol: trained on A5, a network never
-sees the encodings of part ids 5 and 6 that every A7 graph carries, while the surface ids (which
-side of a part a surface is) stay informative at any size.
+`pe`). `part_pe: none` tests whether the part ids' codes limit transfer across sizes (trained on
+A5, a network never sees the codes of ids 5 and 6 that every A7 graph carries), while the surface
+ids (which side of a part a surface is) stay informative at any size. Measured, they do not: without
+them the network plans larger assemblies no better, and A12 worse (docs/size-generalisation.md,
+"Part ids the network never saw").
 
 Also beyond the paper, `cell` (the run's `simulator.cell`; None: the paper's graph) gives every
 part node what the cell decides beside the assembly: its clamp, its pose on the table and its
