@@ -35,6 +35,8 @@ Labeller = Callable[[Scorer, Assembly], LabelledAssembly | None]
 """`label(scorer, assembly)`: the assembly with its training targets, or None (no label)."""
 Score = Callable[[Scorer], dict]
 """`score(scorer)`: the test figures per size (`size_figures`)."""
+Rule = Callable[[Scorer], Scorer]
+"""A planning rule (`threshold=`, grace/planning/thresholds.py): the scores Algorithm 1 plans."""
 FIRST_CHOICE = "first_choice_verified"
 """`info` key of a feasible label: whether the labelling policy's first choice (`own_sequence`,
 the sequence P@1 judges) passed the simulator's check at every step."""
@@ -47,14 +49,16 @@ def search_labeller(
     probe_checks: int | None = None,
     threshold: float = 0.5,
     probe_own_sequence: bool = False,
+    rule: Rule | None = None,
 ) -> Labeller:
     """Labels from the verified search's checked plan (grace/planning/self_labels.py); with
     `mask`, only the parts whose label the search knows carry a loss; with `probe_checks`,
     the steps out of the orders' states that the search left unknown are decided by a
     sub-search of at most that many checks each (`probe_steps`), and with
     `probe_own_sequence` so are those out of the states on the policy's own first choice at λ
-    = `threshold` (`own_sequence`). A label with a verified order records whether that first
-    choice is one (`FIRST_CHOICE`)."""
+    = `threshold` (`own_sequence`, planned under `rule`; the search orders its steps by the
+    policy's own scores, as `task=plan` does). A label with a verified order records whether
+    that first choice is one (`FIRST_CHOICE`)."""
 
     def label(scorer: Scorer, assembly: Assembly) -> LabelledAssembly | None:
         steps = SimulatorSteps(simulator, assembly)
@@ -64,7 +68,7 @@ def search_labeller(
         orders = verified_orders(plan)
         if not orders:
             return plan_labels(plan, assembly, negatives if mask else None)
-        first = own_sequence(scorer, assembly, threshold)
+        first = own_sequence(rule(scorer) if rule else scorer, assembly, threshold)
         probed = None
         if probe_checks is not None:
             paths = [first] if probe_own_sequence else []
@@ -76,16 +80,18 @@ def search_labeller(
     return label
 
 
-def brute_force_labeller(simulator: Any, threshold: float = 0.5) -> Labeller:
+def brute_force_labeller(
+    simulator: Any, threshold: float = 0.5, rule: Rule | None = None
+) -> Labeller:
     """The simulator's ground truth of the same assembly: the upper bound. A feasible one
-    records whether the policy's first choice at λ = `threshold` is one of its orders
-    (`FIRST_CHOICE`)."""
+    records whether the policy's first choice at λ = `threshold` (planned under `rule`) is one
+    of its orders (`FIRST_CHOICE`)."""
 
     def label(scorer: Scorer, assembly: Assembly) -> LabelledAssembly:
         sample = simulator.label(assembly)
         sample.info["labels"] = Labels.brute_force.value
         if sample.truth.feasible:
-            first = own_sequence(scorer, assembly, threshold)
+            first = own_sequence(rule(scorer) if rule else scorer, assembly, threshold)
             sample.info[FIRST_CHOICE] = sample.truth.is_order(first)
         return sample
 

@@ -9,9 +9,10 @@ round's model, and labels it from the plan's verified orders only (grace/plannin
 self_labels.py: a partial label, masked to what the search knows unless
 `task.mask_unknown=false`); then a fresh model (same seed, `task.fit`, the training entry
 of every task) trains on the protocol fold's training assemblies plus every self-labelled one so
-far, and is scored on the fold's test assemblies (`evaluate_by_size`, docs/metrics.md). Every
-use of a round's model (its first choice, the search's scores, the test's Algorithm 1) is planned
-under the run's `threshold=` rule, as `task=experiment` plans its folds. Round 0
+far, and is scored on the fold's test assemblies (`evaluate_by_size`, docs/metrics.md). Its
+first choice and the test's Algorithm 1 plan under the run's `threshold=` rule, as
+`task=experiment` plans its folds; the search orders its steps by the model's own scores, as
+`task=plan` does. Round 0
 is the model trained on the original set only (R = 0). `task.labels=brute_force` labels the
 same drawn assemblies by the simulator's brute force instead: the upper bound of the same data.
 The test assemblies' ground truth is read only to score. Each round's model is also judged on the
@@ -106,8 +107,9 @@ def run(cfg: DictConfig) -> float:
     def draw(r: int) -> list[Assembly]:
         return [d.assembly for d in draws.batch(r, sizes, test)]
 
+    rule = instantiate(cfg.threshold)
     if task.labels == Labels.brute_force:
-        label = brute_force_labeller(simulator, float(task.threshold))
+        label = brute_force_labeller(simulator, float(task.threshold), rule)
     else:
         search = instantiate(cfg.planner)
         if not isinstance(search, VerifiedSearch):
@@ -118,16 +120,15 @@ def run(cfg: DictConfig) -> float:
         probe = None if task.probe_checks is None else int(task.probe_checks)
         label = search_labeller(
             search, simulator, bool(task.mask_unknown), probe, float(task.threshold),
-            bool(task.probe_own_sequence),
+            bool(task.probe_own_sequence), rule,
         )  # fmt: skip
     fit_module = instantiate(task.fit)
-    rule = instantiate(cfg.threshold)
 
     def fit(samples: list[LabelledAssembly], r: int) -> Scorer:
-        return rule(make_scorer(fit_module(cfg, samples, val, out_dir / f"round_{r}")))
+        return make_scorer(fit_module(cfg, samples, val, out_dir / f"round_{r}"))
 
     def score(scorer: Scorer) -> dict:  # the one place the test assemblies' truth is read
-        metrics = evaluate_by_size(scorer, test, [1], float(task.threshold), int(cfg.seed))
+        metrics = evaluate_by_size(rule(scorer), test, [1], float(task.threshold), int(cfg.seed))
         return size_figures(metrics)
 
     settings = {

@@ -105,6 +105,37 @@ def test_each_round_is_judged_by_its_first_choice_on_the_next_draws(fake_simulat
     assert chosen in self_train_markdown({}, done)
 
 
+def test_the_first_choice_is_planned_under_the_rule(fake_simulator):
+    """The first choice that judges a round is Algorithm 1's under the run's `threshold=` rule:
+    a rule that makes the highest unplaced part the only choice turns the constant policy's
+    identity order into the reversed one, whatever the policy scored."""
+
+    def last_first(scorer):
+        def scores(assembly, states):
+            n = assembly.n_parts
+            out = np.zeros((len(states), n))
+            for row, state in enumerate(states):
+                out[row, max(p for p in range(n) if not int(state) >> p & 1)] = 1.0
+            return out
+
+        return scores
+
+    simulator = instantiate(fake_simulator)
+    constant = lambda assembly, states: np.full((len(states), assembly.n_parts), 0.5)  # noqa: E731
+    plain, ruled = brute_force_labeller(simulator), brute_force_labeller(simulator, 0.5, last_first)
+    differ = 0
+    for draw in UnlabelledDraws(simulator, seed=7).batch(1, SIZES, []):
+        truth = simulator.label(draw.assembly).truth
+        if not truth.feasible:
+            continue
+        n = draw.assembly.n_parts
+        identity, reverse = (truth.is_order(o) for o in (tuple(range(n)), tuple(range(n))[::-1]))
+        assert plain(constant, draw.assembly).info[FIRST_CHOICE] == identity
+        assert ruled(constant, draw.assembly).info[FIRST_CHOICE] == reverse
+        differ += identity != reverse
+    assert differ  # the two orders are told apart on some draw
+
+
 @pytest.mark.parametrize("patience, trained", [(1, 2), (2, 3), (None, 3)])
 def test_the_rounds_stop_once_patience_judged_rounds_were_no_better(
     fake_simulator, samples, patience, trained
