@@ -84,10 +84,11 @@ class LiftedThreshold:
     scores are scaled so the best scores exactly `level`, and Algorithm 1 follows that part
     instead of stopping.
 
-    An assembly whose every state has a part above λ plans exactly as under the paper's rule. A
-    sequence through a lifted state carries a factor of `level` (0.5) for it, so it ranks below
-    the confident ones, and a state where everything scores below `floor` still stops the
-    planner (a dead end, or an infeasible assembly, can still retrieve nothing).
+    An assembly whose every state has a part above λ plans exactly as under the paper's rule.
+    Elsewhere the sequences λ retrieves keep their probabilities, and a sequence through a lifted
+    state carries a factor of at most `level` (0.5) for that step, which may still outrank them
+    when its other steps are confident. A state where everything scores below `floor` still
+    stops the planner (a dead end, or an infeasible assembly, can still retrieve nothing).
     """
 
     level: float = 0.5
