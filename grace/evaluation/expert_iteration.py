@@ -25,6 +25,7 @@ from grace.planning.self_labels import (
 )
 from grace.planning.sequences import Scorer
 from grace.planning.step_checks import accepted_throughout
+from grace.planning.thresholds import AbsoluteThreshold
 
 log = logging.getLogger(__name__)
 
@@ -36,7 +37,10 @@ Labeller = Callable[[Scorer, Assembly], LabelledAssembly | None]
 Score = Callable[[Scorer], dict]
 """`score(scorer)`: the test figures per size (`size_figures`)."""
 Rule = Callable[[Scorer], Scorer]
-"""A planning rule (`threshold=`, grace/planning/thresholds.py): the scores Algorithm 1 plans."""
+"""A planning rule (`threshold=`, grace/planning/thresholds.py): the scores Algorithm 1 plans
+(the paper's, `AbsoluteThreshold`, plans the policy's scores as they are)."""
+PAPER_RULE: Rule = AbsoluteThreshold()
+"""The labellers' default rule: the paper's λ."""
 FIRST_CHOICE = "first_choice_verified"
 """`info` key of a feasible label: whether the labelling policy's first choice (`own_sequence`,
 the sequence P@1 judges) passed the simulator's check at every step."""
@@ -49,7 +53,7 @@ def search_labeller(
     probe_checks: int | None = None,
     threshold: float = 0.5,
     probe_own_sequence: bool = False,
-    rule: Rule | None = None,
+    rule: Rule = PAPER_RULE,
 ) -> Labeller:
     """Labels from the verified search's checked plan (grace/planning/self_labels.py); with
     `mask`, only the parts whose label the search knows carry a loss; with `probe_checks`,
@@ -68,7 +72,7 @@ def search_labeller(
         orders = verified_orders(plan)
         if not orders:
             return plan_labels(plan, assembly, negatives if mask else None)
-        first = own_sequence(rule(scorer) if rule else scorer, assembly, threshold)
+        first = own_sequence(rule(scorer), assembly, threshold)
         probed = None
         if probe_checks is not None:
             paths = [first] if probe_own_sequence else []
@@ -81,7 +85,7 @@ def search_labeller(
 
 
 def brute_force_labeller(
-    simulator: Any, threshold: float = 0.5, rule: Rule | None = None
+    simulator: Any, threshold: float = 0.5, rule: Rule = PAPER_RULE
 ) -> Labeller:
     """The simulator's ground truth of the same assembly: the upper bound. A feasible one
     records whether the policy's first choice at λ = `threshold` (planned under `rule`) is one
@@ -91,7 +95,7 @@ def brute_force_labeller(
         sample = simulator.label(assembly)
         sample.info["labels"] = Labels.brute_force.value
         if sample.truth.feasible:
-            first = own_sequence(rule(scorer) if rule else scorer, assembly, threshold)
+            first = own_sequence(rule(scorer), assembly, threshold)
             sample.info[FIRST_CHOICE] = sample.truth.is_order(first)
         return sample
 
