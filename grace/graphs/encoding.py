@@ -19,6 +19,12 @@ ids (which side of a part a surface is) stay informative at any size. Measured, 
 them the network plans larger assemblies no better, and A12 worse (docs/size-generalisation.md,
 "Part ids the network never saw").
 
+`part_id_range` R (None: the paper's ids 0..N−1) draws a part's id instead as a sorted random sample
+of N ids from 0..R−1, in training and in evaluation (there seeded per assembly, so planning stays
+deterministic): the randomised positional encoding of Ruoss et al. (ACL 2023) for length
+generalisation. The ids keep their order (nearest the origin first) while a network trained on A3–A7
+has seen the codes of every id below R, so an A12 carries no code it never saw.
+
 Also beyond the paper, `cell` (the run's `simulator.cell`; None: the paper's graph) gives every
 part node what the cell decides beside the assembly: its clamp, its pose on the table and its
 distance from the arms (grace/graphs/cell_features.py), an oracle input that measures how much
@@ -101,6 +107,7 @@ class GraphEncoding:
     permute_surfaces: Permute = Permute.never
     distance_scale: float = 100.0
     part_pe: PE | None = None
+    part_id_range: int | None = None
     cell: Any = field(default=None, hash=False)  # a CellConfig (or its mapping), or None
 
     def __post_init__(self) -> None:
@@ -113,6 +120,11 @@ class GraphEncoding:
             from grace.simulation.cell_config import CellConfig, typed
 
             object.__setattr__(self, "cell", typed(CellConfig, self.cell, "model.graph.cell"))
+        if self.part_id_range is not None and self.part_id_range < 1:
+            raise UserError(
+                f"model.graph.part_id_range={self.part_id_range}: use null (ids 0..N-1) or at "
+                "least the largest assembly's part count"
+            )
         if self.distance_scale <= 0:
             raise UserError(
                 f"model.graph.distance_scale={self.distance_scale}: use a positive scale "
@@ -133,6 +145,7 @@ class GraphEncoding:
         """True when encoding an assembly twice can give different inputs (needs an rng)."""
         return (
             PE.random in (self.pe, self.part_pe)
+            or self.part_id_range is not None
             or self.permute_parts is not Permute.never
             or self.permute_surfaces is not Permute.never
         )
@@ -163,11 +176,19 @@ def node_ids(
     training: bool,
     rng: np.random.Generator | None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Part ids (0..N−1) and surface ids (1..k on each part), permuted as `enc` asks."""
+    """Part ids (0..N−1, or sorted draws below `enc.part_id_range`) and surface ids (1..k on each
+    part), permuted as `enc` asks."""
     part_ids = np.arange(n_parts)
     surface_ids = np.asarray(surface_index).copy()
+    if enc.part_id_range is not None:
+        if n_parts > enc.part_id_range:
+            raise UserError(
+                f"model.graph.part_id_range={enc.part_id_range}: an assembly has {n_parts} parts; "
+                f"set it to at least {n_parts}"
+            )
+        part_ids = np.sort(_require(rng).choice(enc.part_id_range, n_parts, replace=False))
     if enc.permute_parts.applies(training):
-        part_ids = _require(rng).permutation(n_parts)
+        part_ids = part_ids[_require(rng).permutation(n_parts)]
     if enc.permute_surfaces.applies(training):
         for p in range(n_parts):
             own = np.flatnonzero(part_of_surface == p)

@@ -3,6 +3,7 @@ import pytest
 from hydra.errors import ConfigCompositionException, InstantiationException
 from hydra.utils import instantiate
 
+from grace.errors import UserError
 from grace.graphs.encoding import GraphEncoding, node_ids, sinusoidal_pe
 
 pytestmark = pytest.mark.numerics  # asserts on float results of torch arithmetic (.ci/kernels)
@@ -37,6 +38,7 @@ def test_pe_kinds():
         ("pe", "learned"),
         ("part_pe", "onehot"),
         ("permute_parts", "always"),
+        ("part_id_range", 0),
         ("distance_scale", 0.0),
     ],
 )
@@ -79,3 +81,25 @@ def test_train_test_permutation_applies_in_training():
         tuple(node_ids(PART_OF_SURFACE, SURFACE_INDEX, 3, enc, True, rng)[0]) for _ in range(20)
     }
     assert len(seen) > 1
+
+
+@pytest.mark.parametrize("training", [True, False])
+def test_a_part_id_range_draws_ordered_ids_below_it(training):
+    enc = GraphEncoding(part_id_range=16)
+    assert enc.randomised
+    draws = [
+        node_ids(PART_OF_SURFACE, SURFACE_INDEX, 3, enc, training, np.random.default_rng(s))
+        for s in range(30)
+    ]
+    for parts, surfaces in draws:
+        assert parts.tolist() == sorted(set(parts.tolist())) and 0 <= parts.min() < parts.max() < 16
+        assert surfaces.tolist() == SURFACE_INDEX.tolist()
+    assert max(int(parts.max()) for parts, _ in draws) > 2  # codes a 3-part graph never had
+    again = node_ids(PART_OF_SURFACE, SURFACE_INDEX, 3, enc, training, np.random.default_rng(0))
+    assert again[0].tolist() == draws[0][0].tolist()
+
+
+def test_a_part_id_range_below_the_part_count_names_the_key():
+    enc = GraphEncoding(part_id_range=2)
+    with pytest.raises(UserError, match=r"model\.graph\.part_id_range=2: .*at least 3"):
+        node_ids(PART_OF_SURFACE, SURFACE_INDEX, 3, enc, True, np.random.default_rng(0))
