@@ -23,7 +23,9 @@ them the network plans larger assemblies no better, and A12 worse (docs/size-gen
 of N ids from 0..R−1, in training and in evaluation (there seeded per assembly, so planning stays
 deterministic): the randomised positional encoding of Ruoss et al. (ACL 2023) for length
 generalisation. The ids keep their order (nearest the origin first) while a network trained on A3–A7
-has seen the codes of every id below R, so an A12 carries no code it never saw.
+has seen the codes of every id below R, so an A12 carries no code it never saw. Measured, this does
+not plan larger assemblies better either (docs/size-generalisation.md, "Ids drawn from a wider
+range").
 
 Also beyond the paper, `cell` (the run's `simulator.cell`; None: the paper's graph) gives every
 part node what the cell decides beside the assembly: its clamp, its pose on the table and its
