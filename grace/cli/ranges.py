@@ -127,6 +127,11 @@ RANGES: dict[str, Range] = {
         0, "part-node inputs beyond the paper's (model.graph.cell); 0: none"
     ),
     "model.graph.pe_dim": at_least(1, "features of a positional encoding"),
+    "model.graph.part_id_range": at_least(
+        MIN_PARTS,
+        "part ids are drawn below it (at least the largest assembly's parts); null: 0..N-1",
+        example=24,
+    ),
     "model.graph.distance_scale": above(
         0, "millimetres per unit of a surface distance fed to the network", 100
     ),
