@@ -43,6 +43,7 @@ from typing import Any
 
 import numpy as np
 
+from grace.domain.assembly import MIN_PARTS
 from grace.errors import UserError
 
 
@@ -122,7 +123,7 @@ class GraphEncoding:
             from grace.simulation.cell_config import CellConfig, typed
 
             object.__setattr__(self, "cell", typed(CellConfig, self.cell, "model.graph.cell"))
-        if self.part_id_range is not None and self.part_id_range < 1:
+        if self.part_id_range is not None and self.part_id_range < MIN_PARTS:
             raise UserError(
                 f"model.graph.part_id_range={self.part_id_range}: use null (ids 0..N-1) or at "
                 "least the largest assembly's part count"
