@@ -13,6 +13,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -112,6 +113,15 @@ def _running(name: str) -> bool:
     return subprocess.run(["pgrep", "-x", name], capture_output=True).returncode == 0
 
 
+def _wait_for_an_empty_queue(timeout: float) -> None:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        queue = subprocess.run(["squeue", "-h"], capture_output=True, text=True)
+        if queue.returncode != 0 or not queue.stdout.strip():
+            return
+        time.sleep(1.0)
+
+
 @pytest.fixture
 def slurm_cluster():
     """A single-node SLURM cluster on this machine (.ci/slurm-setup.sh); the daemons this
@@ -123,6 +133,8 @@ def slurm_cluster():
     if setup.returncode != 0:
         pytest.skip(f"no single-node SLURM here: {setup.stderr.strip() or setup.stdout.strip()}")
     yield setup.stdout.strip()
+    if started:  # let the jobs' steps end first, or their srun clients outlive the daemons
+        _wait_for_an_empty_queue(timeout=120.0)
     for name in started:  # by the pid each daemon wrote, never by name
         with contextlib.suppress(FileNotFoundError, ProcessLookupError, ValueError):
             os.kill(int(Path(SLURM_DAEMONS[name]).read_text().strip()), signal.SIGTERM)
