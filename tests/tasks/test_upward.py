@@ -44,6 +44,21 @@ def test_upward_folds_keep_test_sizes_out_of_training_and_validation(cfg_factory
     assert {s: (sizes == s).sum() for s in (8, 10, 12)} == {8: 100, 10: 100, 12: 100}
 
 
+def test_more_training_assemblies_keep_the_test_set_and_halve_the_epochs(cfg_factory):
+    """scale=upward_more: more A6 and A7 to train on, the same hundred A8, A10 and A12 to test
+    (an assembly's draw depends on its size and index alone), and its own epoch count, which the
+    command line still overrides."""
+    upward = cfg_factory("protocol=upward", "scale=upward")
+    more = cfg_factory("protocol=upward", "scale=upward_more")
+    assert {n: more.dataset.sizes[n] for n in (8, 10, 12)} == {8: 100, 10: 100, 12: 100}
+    assert all(more.dataset.sizes[n] >= upward.dataset.sizes[n] for n in upward.dataset.sizes)
+    assert (more.dataset.sizes[6], more.dataset.sizes[7]) == (1000, 2000)
+    assert (upward.trainer.max_epochs, more.trainer.max_epochs) == (16, 8)
+    assert more.model.scheduler.T_max == 8  # the cosine schedule ends with the run
+    again = cfg_factory("protocol=upward", "scale=upward_more", "trainer.max_epochs=3")
+    assert again.trainer.max_epochs == 3
+
+
 @pytest.mark.slow  # end to end; the split has its fast test above
 def test_upward_runs_end_to_end_on_tiny_sizes(cfg_factory, fake_simulator, tmp_path):
     cfg = _upward_cfg(cfg_factory, fake_simulator)
